@@ -1,0 +1,92 @@
+"""The docking station: a wave-energy converter (WEC) that heaves sinusoidally.
+
+Paper eq. (7): ``z_W_dot = w A cos(w t)``, i.e. ``z_W(t) = z_0 + A sin(w t + phase)``.
+The dock does not translate horizontally nor rotate; its heading is fixed.
+
+Frames and units: positions NED in metres, velocities NED in m/s, heading in radians
+(clockwise from north, ZYX yaw), time in seconds.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["HeaveDock"]
+
+
+@dataclass(frozen=True)
+class HeaveDock:
+    """A dock heaving as ``z(t) = z0 + A sin(w t + phase)``.
+
+    Parameters
+    ----------
+    position_ned_m : tuple of 3 floats
+        Mean dock position (north, east, down) in metres; ``down`` is z0.
+    heading_rad : float
+        Target heading of a docked vehicle, radians.
+    amplitude_m : float
+        Heave amplitude A in metres (>= 0).
+    angular_frequency_rad_s : float
+        Heave angular frequency w in rad/s (>= 0).
+    phase_rad : float
+        Phase of the heave at t = 0, radians.
+    """
+
+    position_ned_m: tuple[float, float, float]
+    heading_rad: float = 0.0
+    amplitude_m: float = 0.0
+    angular_frequency_rad_s: float = 0.0
+    phase_rad: float = 0.0
+
+    @property
+    def frequency_hz(self) -> float:
+        """Heave frequency in Hz."""
+        return self.angular_frequency_rad_s / (2.0 * math.pi)
+
+    def position(self, t: float | np.ndarray) -> np.ndarray:
+        """Dock position (north, east, down) in m at time(s) ``t`` (s); shape (..., 3)."""
+        t = np.asarray(t, dtype=float)
+        n, e, z0 = self.position_ned_m
+        z = z0 + self.amplitude_m * np.sin(self.angular_frequency_rad_s * t + self.phase_rad)
+        return np.stack([np.full_like(z, n), np.full_like(z, e), z], axis=-1)
+
+    def velocity(self, t: float | np.ndarray) -> np.ndarray:
+        """Dock velocity (north, east, down) in m/s at time(s) ``t`` (s); shape (..., 3)."""
+        t = np.asarray(t, dtype=float)
+        w = self.angular_frequency_rad_s
+        zd = w * self.amplitude_m * np.cos(w * t + self.phase_rad)
+        return np.stack([np.zeros_like(zd), np.zeros_like(zd), zd], axis=-1)
+
+    def trajectory(self, t0: float, dt: float, n_steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Dock motion at ``t0 + k dt`` for k = 0..n_steps.
+
+        Returns
+        -------
+        t : ndarray, shape (n_steps + 1,)
+            Times in s.
+        position : ndarray, shape (n_steps + 1, 3)
+            NED positions in m.
+        velocity : ndarray, shape (n_steps + 1, 3)
+            NED velocities in m/s.
+        """
+        t = t0 + dt * np.arange(n_steps + 1)
+        return t, self.position(t), self.velocity(t)
+
+    def reference_state(self, t: float | np.ndarray) -> np.ndarray:
+        """The dock's state x_W in the vehicle's state layout, shape (..., 12).
+
+        ``[x, y, z, 0, 0, heading, vn, ve, vd, 0, 0, 0]``; the velocity part is the
+        dock's NED velocity (equal to its body velocity, as the dock is level and does
+        not rotate apart from its fixed heading, up to that heading's rotation).
+        """
+        p = self.position(t)
+        v = self.velocity(t)
+        shape = p.shape[:-1]
+        out = np.zeros(shape + (12,))
+        out[..., 0:3] = p
+        out[..., 5] = self.heading_rad
+        out[..., 6:9] = v
+        return out

@@ -1,0 +1,473 @@
+"""Mission files: one YAML file says everything about a run.
+
+A mission names the vehicle, the flow, the dock, the start state, the controller, the
+estimator and sensors, the docking criterion and the output.  Every value has its unit in
+its name or in the field's description; every field except ``name`` has a default (the
+paper's setup, parameters.md).  :func:`load_mission` validates a file and raises
+:class:`MissionError` -- naming the file, the field path (e.g. ``dock.heave.amplitude_m``)
+and the problem -- on any bad input.
+
+Minimal mission::
+
+    name: gyre
+    flow: {case: case5}
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import numpy as np
+import yaml
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
+
+from .dock import HeaveDock
+from .flow import ConstantCurrent, DoubleGyre, FlowField, StillWater, flow_case, flow_case_names
+from .vehicle import Vehicle, load_vehicle, preset_names
+from .vehicle.params import VehicleParamsError
+
+__all__ = [
+    "Mission",
+    "MissionError",
+    "load_mission",
+    "parse_mission",
+    "CONTROLLER_TYPES",
+    "SOLVER_NAMES",
+]
+
+CONTROLLER_TYPES = ("naive", "kinematic", "oracle", "sequential", "optimized")
+SOLVER_NAMES = ("ipopt", "sqp")
+
+PosFloat = Annotated[float, Field(gt=0)]
+NonNegFloat = Annotated[float, Field(ge=0)]
+
+_DEFAULT_Q = [1.0, 1.0, 1.0, 100.0, 100.0, 100.0, 1.0, 1.0, 1.0, 100.0, 100.0, 100.0]
+
+
+class MissionError(Exception):
+    """A mission file is missing or wrong.  ``str(err)`` is the one line shown to users."""
+
+    def __init__(self, file: str | Path, field: str, problem: str) -> None:
+        self.file = str(file)
+        self.field = field
+        self.problem = problem
+        where = f"{self.file}: {field}: " if field else f"{self.file}: "
+        super().__init__(where + problem)
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, validate_default=True)
+
+
+def _fixed_len(n: int):
+    def check(v: list[Any]) -> list[Any]:
+        if len(v) != n:
+            raise ValueError(f"must have {n} values, got {len(v)}")
+        return v
+
+    return AfterValidator(check)
+
+
+Vec3 = Annotated[list[float], _fixed_len(3)]
+Vec6Pos = Annotated[list[PosFloat], _fixed_len(6)]
+Vec12 = Annotated[list[float], _fixed_len(12)]
+Vec12NonNeg = Annotated[list[NonNegFloat], _fixed_len(12)]
+Vec3Pos = Annotated[list[PosFloat], _fixed_len(3)]
+
+
+class VehicleSpec(_Strict):
+    """Which vehicle: a shipped preset or a parameter file, plus overrides."""
+
+    preset: str | None = Field(
+        default=None, description="shipped parameter set: bluerov2_heavy (default) or bluerov2_heavy_vonbenzon"
+    )
+    file: str | None = Field(default=None, description="path of a parameter YAML file (relative to the mission)")
+    overrides: dict[str, Any] = Field(default_factory=dict, description="parameter keys to replace, e.g. mass_kg")
+    thruster_voltage_V: Literal[12, 16] = Field(default=16, description="battery voltage; selects T200 limits")
+
+    @field_validator("preset")
+    @classmethod
+    def _known_preset(cls, v: str | None) -> str | None:
+        if v is not None and v not in preset_names():
+            raise ValueError(f"unknown vehicle preset {v!r} (known: {', '.join(preset_names())})")
+        return v
+
+    @model_validator(mode="after")
+    def _one_source(self) -> VehicleSpec:
+        if self.preset is not None and self.file is not None:
+            raise ValueError("give either preset or file, not both")
+        if self.preset is None and self.file is None:
+            self.preset = "bluerov2_heavy"
+        return self
+
+
+class FlowSpec(_Strict):
+    """The water: a paper case by name, or an explicit field."""
+
+    case: str | None = Field(default=None, description="case1..case6 or an alias (still, gyre, ...)")
+    type: Literal["still", "constant", "double_gyre"] | None = Field(default=None, description="explicit field")
+    velocity_ned_m_s: list[float] | None = Field(
+        default=None, description="constant current (north, east) or (north, east, 0), m/s"
+    )
+    amplitude_m_s: NonNegFloat | None = Field(default=None, description="double gyre A (peak speed ~ pi A), m/s")
+    period_h: PosFloat | None = Field(default=None, description="double gyre period T, hours")
+    epsilon: NonNegFloat = Field(default=0.3, description="double gyre eps")
+
+    @field_validator("case")
+    @classmethod
+    def _known_case(cls, v: str | None) -> str | None:
+        if v is not None:
+            try:
+                flow_case(v)
+            except KeyError:
+                raise ValueError(f"unknown flow case {v!r} (known: {', '.join(flow_case_names())})") from None
+        return v
+
+    @field_validator("velocity_ned_m_s")
+    @classmethod
+    def _velocity(cls, v: list[float] | None) -> list[float] | None:
+        if v is None:
+            return v
+        if len(v) not in (2, 3):
+            raise ValueError(f"must have 2 or 3 values, got {len(v)}")
+        if len(v) == 3 and v[2] != 0:
+            raise ValueError("the down component must be 0 (paper Assumption 4)")
+        return v
+
+    @model_validator(mode="after")
+    def _one_way(self) -> FlowSpec:
+        if self.case is not None and self.type is not None:
+            raise ValueError("give either case or type, not both")
+        if self.case is None and self.type is None:
+            self.case = "case1"
+        if self.type == "constant" and self.velocity_ned_m_s is None:
+            raise ValueError("type constant needs velocity_ned_m_s")
+        if self.type == "double_gyre" and (self.amplitude_m_s is None or self.period_h is None):
+            raise ValueError("type double_gyre needs amplitude_m_s and period_h")
+        return self
+
+    def build(self) -> FlowField:
+        """The flow field this spec describes."""
+        if self.case is not None:
+            return flow_case(self.case)
+        if self.type == "still":
+            return StillWater()
+        if self.type == "constant":
+            v = self.velocity_ned_m_s or [0.0, 0.0]
+            return ConstantCurrent(float(v[0]), float(v[1]))
+        return DoubleGyre(float(self.amplitude_m_s), float(self.period_h) * 3600.0, float(self.epsilon))
+
+
+class HeaveSpec(_Strict):
+    """Dock heave z(t) = z0 + A sin(w t + phase) (paper eq. 7)."""
+
+    amplitude_m: NonNegFloat = Field(default=0.5, description="heave amplitude A, m")
+    angular_frequency_rad_s: NonNegFloat | None = Field(default=None, description="w, rad/s (default 0.1)")
+    frequency_hz: NonNegFloat | None = Field(default=None, description="w / (2 pi), Hz (instead of w)")
+    phase_rad: float = Field(default=0.0, description="phase at t = 0, rad")
+
+    @model_validator(mode="after")
+    def _one_frequency(self) -> HeaveSpec:
+        if self.angular_frequency_rad_s is not None and self.frequency_hz is not None:
+            raise ValueError("give either angular_frequency_rad_s or frequency_hz, not both")
+        if self.angular_frequency_rad_s is None:
+            self.angular_frequency_rad_s = (
+                0.1 if self.frequency_hz is None else 2 * math.pi * self.frequency_hz
+            )
+        return self
+
+
+class DockSpec(_Strict):
+    """The dock (WEC) and its motion."""
+
+    position_ned_m: Vec3 = Field(default=[2.0, 3.0, 5.0], description="mean position (north, east, down), m")
+    heading_deg: float = Field(default=0.0, description="target heading of the docked vehicle, degrees")
+    heave: HeaveSpec = Field(default_factory=HeaveSpec)
+
+    def build(self) -> HeaveDock:
+        """The dock this spec describes."""
+        h = self.heave
+        return HeaveDock(
+            position_ned_m=tuple(float(v) for v in self.position_ned_m),  # type: ignore[arg-type]
+            heading_rad=math.radians(self.heading_deg),
+            amplitude_m=h.amplitude_m,
+            angular_frequency_rad_s=float(h.angular_frequency_rad_s or 0.0),
+            phase_rad=h.phase_rad,
+        )
+
+
+class StartSpec(_Strict):
+    """Initial vehicle state."""
+
+    state: Vec12 = Field(
+        default=[0.0, 0.0, 5.0, 0, 0, 0, 0, 0, 0, 0, 0, 0],
+        description="[x y z (NED m), phi theta psi (rad), u v w (body m/s over ground), p q r (rad/s)]",
+    )
+
+
+class WeightsSpec(_Strict):
+    """MPC weights of cost (10): stage Q and terminal P on the 12-state error, R on input rate."""
+
+    Q: Vec12NonNeg = Field(default=list(_DEFAULT_Q), description="12 diagonal stage weights")
+    R: list[NonNegFloat] = Field(default=[10.0] * 8, description="8 diagonal input-rate weights, 1/N^2")
+    P: Vec12NonNeg = Field(default=list(_DEFAULT_Q), description="12 diagonal terminal weights")
+
+    @field_validator("R", mode="before")
+    @classmethod
+    def _r(cls, v: Any) -> Any:
+        if isinstance(v, (int, float)) and not isinstance(v, bool):
+            return [v] * 8
+        if isinstance(v, list) and len(v) != 8:
+            raise ValueError(f"must have 8 values (or one number), got {len(v)}")
+        return v
+
+
+class BoundsSpec(_Strict):
+    """State bounds of the MPC (parameters.md section 4)."""
+
+    relative_velocity_max_m_s: Vec3Pos = Field(default=[2.5, 2.5, 2.5], description="|u_r|, |v_r|, |w_r|, m/s")
+    angular_rate_max_rad_s: Vec3Pos = Field(default=[0.25, 0.25, 0.25], description="|p|, |q|, |r|, rad/s")
+
+
+class SolverSpec(_Strict):
+    """Numerical solver of the MPC problem."""
+
+    name: Literal["ipopt", "sqp"] = Field(default="ipopt", description="ipopt or sqp (sqpmethod + qrqp)")
+    max_iter: Annotated[int, Field(ge=1)] = Field(default=100, description="iteration limit per solve")
+    tol: PosFloat = Field(default=1e-6, description="convergence tolerance")
+
+
+class ControllerSpec(_Strict):
+    """The docking controller (paper section V)."""
+
+    type: Literal["naive", "kinematic", "oracle", "sequential", "optimized"] = Field(default="oracle")
+    horizon_steps: Annotated[int, Field(ge=1)] = Field(default=10, description="N, steps")
+    dt_s: PosFloat = Field(default=0.05, description="control period and MPC step, s")
+    weights: WeightsSpec = Field(default_factory=WeightsSpec)
+    bounds: BoundsSpec = Field(default_factory=BoundsSpec)
+    solver: SolverSpec = Field(default_factory=SolverSpec)
+    alpha: NonNegFloat = Field(default=1e-3, description="Optimized FSE-MPC weight on the information metric F")
+    perception_wrench_max: Vec6Pos = Field(
+        default=[0.1, 0.1, 0.1, 0.1, 0.1, 0.1],
+        description="Sequential FSE-MPC: bound of the active-perception wrench (N, N m), 6 values",
+    )
+
+
+class EstimatorSpec(_Strict):
+    """Kalman filter on the body-frame flow (parameters.md section 5)."""
+
+    prior_flow_ned_m_s: Vec3 = Field(default=[0.0, 0.0, 0.0], description="prior flow estimate, m/s")
+    prior_std_m_s: PosFloat = Field(
+        default=3.0, description="prior standard deviation per axis, m/s (contains the 2 m/s of case 4)"
+    )
+    process_noise_m2_s2: NonNegFloat = Field(default=1e-12, description="Q_f per axis per step, (m/s)^2")
+    accel_noise_var: PosFloat = Field(default=2.029e-5, description="R: accelerometer variance, (m/s^2)^2")
+    depth_rate_noise_var: PosFloat = Field(default=2e-6, description="R: depth-rate variance, (m/s)^2")
+    forgetting_factor: Annotated[float, Field(gt=0, le=1)] = Field(
+        default=1.0, description="gramian forgetting factor in (0, 1]; 1 = no forgetting"
+    )
+
+
+class SensorsSpec(_Strict):
+    """Simulated sensor noise (standard deviations); no velocity sensor (no DVL)."""
+
+    position_std_m: NonNegFloat = Field(default=0.0, description="pose position noise, m")
+    attitude_std_rad: NonNegFloat = Field(default=0.0, description="pose attitude noise, rad")
+    gyro_std_rad_s: NonNegFloat = Field(default=0.0, description="angular-rate noise, rad/s")
+    accel_std_m_s2: NonNegFloat = Field(default=0.0045, description="accelerometer noise, m/s^2")
+    depth_rate_std_m_s: NonNegFloat = Field(default=0.0014, description="depth-rate noise, m/s")
+
+
+class DockingSpec(_Strict):
+    """When a run ends."""
+
+    tolerance_m: PosFloat = Field(default=0.05, description="docked when within this distance of the dock, m")
+    timeout_s: PosFloat = Field(default=75.0, description="give up after this simulated time, s")
+
+
+class SimulationSpec(_Strict):
+    """Truth simulation settings."""
+
+    substeps: Annotated[int, Field(ge=1)] = Field(default=4, description="RK4 substeps per control period")
+
+
+class OutputSpec(_Strict):
+    """Where results go."""
+
+    dir: str = Field(default="runs", description="output directory (relative to the working directory)")
+
+
+class Mission(_Strict):
+    """A complete, validated mission."""
+
+    name: str = Field(description="mission name, used in file names")
+    description: str = Field(default="", description="free text")
+    vehicle: VehicleSpec = Field(default_factory=VehicleSpec)
+    flow: FlowSpec = Field(default_factory=FlowSpec)
+    dock: DockSpec = Field(default_factory=DockSpec)
+    start: StartSpec = Field(default_factory=StartSpec)
+    controller: ControllerSpec = Field(default_factory=ControllerSpec)
+    estimator: EstimatorSpec = Field(default_factory=EstimatorSpec)
+    sensors: SensorsSpec = Field(default_factory=SensorsSpec)
+    docking: DockingSpec = Field(default_factory=DockingSpec)
+    simulation: SimulationSpec = Field(default_factory=SimulationSpec)
+    seed: Annotated[int, Field(ge=0)] = Field(default=0, description="random seed (sensor noise)")
+    output: OutputSpec = Field(default_factory=OutputSpec)
+
+    # where the file was read from (not part of the schema)
+    _source: Path | None = None
+
+    @field_validator("name")
+    @classmethod
+    def _name(cls, v: str) -> str:
+        if not v.strip():
+            raise ValueError("must not be empty")
+        return v
+
+    @property
+    def source(self) -> Path | None:
+        """The mission file this mission was read from, if any."""
+        return self._source
+
+    def build_vehicle(self) -> Vehicle:
+        """The vehicle the mission names, with its overrides."""
+        v = self.vehicle
+        if v.file is not None:
+            p = Path(v.file)
+            if not p.is_absolute() and self._source is not None:
+                p = self._source.parent / p
+            target: str | Path = p
+        else:
+            target = v.preset or "bluerov2_heavy"
+        return load_vehicle(target, v.overrides or None, v.thruster_voltage_V)
+
+    def build_flow(self) -> FlowField:
+        """The true flow field."""
+        return self.flow.build()
+
+    def build_dock(self) -> HeaveDock:
+        """The dock."""
+        return self.dock.build()
+
+    def start_state(self) -> np.ndarray:
+        """Initial state (12,)."""
+        return np.asarray(self.start.state, dtype=float)
+
+    def resolved(self) -> dict[str, Any]:
+        """The mission with every default filled in, as plain data."""
+        return self.model_dump(mode="json")
+
+    def to_yaml(self) -> str:
+        """The resolved mission as YAML text (stored in every results file)."""
+        return yaml.safe_dump(self.resolved(), sort_keys=False)
+
+    def with_updates(self, **changes: Any) -> Mission:
+        """A validated copy with dotted-path changes, e.g. ``{"controller.type": "naive"}``."""
+        data = self.resolved()
+        for path, value in changes.items():
+            node = data
+            keys = path.split(".")
+            for k in keys[:-1]:
+                node = node[k]
+            node[keys[-1]] = value
+        m = Mission.model_validate(data)
+        m._source = self._source
+        return m
+
+
+def _field_path(loc: tuple[Any, ...]) -> str:
+    return ".".join(str(p) for p in loc) if loc else "(top level)"
+
+
+def _allowed_keys(loc: tuple[Any, ...]) -> list[str]:
+    model: Any = Mission
+    for part in loc[:-1]:
+        if isinstance(part, int):
+            continue
+        f = getattr(model, "model_fields", {}).get(part)
+        if f is None:
+            return []
+        model = f.annotation
+    return list(getattr(model, "model_fields", {}))
+
+
+def _problem(err: dict[str, Any]) -> str:
+    kind = err.get("type", "")
+    msg = str(err.get("msg", "invalid"))
+    if kind == "extra_forbidden":
+        allowed = _allowed_keys(tuple(err.get("loc", ())))
+        return "unknown key" + (f" (allowed: {', '.join(allowed)})" if allowed else "")
+    if kind == "finite_number":
+        return "must be a finite number (no NaN or inf)"
+    if msg.startswith("Value error, "):
+        msg = msg[len("Value error, "):]
+    elif msg.startswith("Assertion failed, "):
+        msg = msg[len("Assertion failed, "):]
+    else:
+        msg = msg[0].lower() + msg[1:] if msg else msg
+    if "input" in err and kind not in ("missing",) and not isinstance(err["input"], (dict, list)):
+        msg += f" (got {err['input']!r})"
+    return msg
+
+
+def parse_mission(data: Any, source: str | Path = "<mission>") -> Mission:
+    """Validate already-parsed mission data; raises :class:`MissionError`."""
+    if not isinstance(data, dict):
+        raise MissionError(source, "", "a mission file must hold a YAML mapping (key: value pairs)")
+    try:
+        m = Mission.model_validate(data)
+    except ValidationError as e:
+        err = e.errors()[0]
+        loc = tuple(err.get("loc", ()))
+        # drop pydantic's internal tags for function validators
+        loc = tuple(p for p in loc if not (isinstance(p, str) and p.startswith("function-")))
+        raise MissionError(source, _field_path(loc), _problem(err)) from None
+    if isinstance(source, Path) or (isinstance(source, str) and source != "<mission>"):
+        m._source = Path(source)
+    # a vehicle file and its overrides are checked now, so that bad input fails early
+    try:
+        m.build_vehicle()
+    except VehicleParamsError as e:
+        field = "vehicle" if e.field == "vehicle" else f"vehicle.{e.field}"
+        if m.vehicle.file is not None and not e.field.startswith("overrides"):
+            field = "vehicle.file" if e.field == "vehicle" else f"vehicle.file ({e.field})"
+        raise MissionError(source, field, e.message) from None
+    return m
+
+
+def load_mission(path: str | Path) -> Mission:
+    """Read and validate a mission file.
+
+    Raises
+    ------
+    MissionError
+        On a missing file, a YAML syntax error or any invalid field; ``str(err)`` is one
+        line: ``<file>: <field.path>: <problem>``.
+    """
+    p = Path(path)
+    if not p.exists():
+        raise MissionError(p, "", "file not found")
+    if not p.is_file():
+        raise MissionError(p, "", "not a file")
+    try:
+        text = p.read_text()
+    except (OSError, UnicodeDecodeError) as e:
+        raise MissionError(p, "", f"cannot read: {e}") from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as e:
+        mark = getattr(e, "problem_mark", None)
+        where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark is not None else ""
+        problem = getattr(e, "problem", None) or str(e).splitlines()[0]
+        raise MissionError(p, "", f"YAML syntax error: {where}{problem}") from None
+    return parse_mission(data, p)

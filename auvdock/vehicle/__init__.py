@@ -1,0 +1,117 @@
+"""The vehicle: BlueROV2 Heavy parameters, the symbolic model and a numpy face.
+
+Library use::
+
+    from auvdock.vehicle import load_vehicle
+    v = load_vehicle("bluerov2_heavy")
+    xdot = v.state_derivative(x, u, flow_ned)   # ndarray (12,)
+    v.allocation                                # (6, 8): tau = B u
+    v.thrust_min, v.thrust_max                  # (8,) N
+
+Conventions: ``x = [x, y, z, phi, theta, psi, u, v, w, p, q, r]`` -- position NED (m),
+ZYX Euler angles (rad), body-frame velocity over ground (m/s, rad/s); ``u`` = thrust of
+T1..T8 (N); ``flow_ned`` = water velocity (north, east, down) at the vehicle (m/s).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from .model import VehicleModel, rk4
+from .params import VehicleParams, VehicleParamsError, load_params, preset_names
+
+__all__ = ["Vehicle", "VehicleModel", "VehicleParams", "VehicleParamsError", "load_vehicle", "preset_names"]
+
+
+class Vehicle:
+    """A vehicle: its parameters, its one symbolic model and numeric helpers."""
+
+    def __init__(self, params: VehicleParams) -> None:
+        self.params = params
+        self.model = VehicleModel(params)
+        self._steppers: dict[tuple[Any, ...], ca.Function] = {}
+
+    @property
+    def name(self) -> str:
+        return self.params.name
+
+    @property
+    def allocation(self) -> np.ndarray:
+        """Thruster allocation matrix B (6x8): body wrench (N, N m) = B @ thrusts (N)."""
+        return self.model.B
+
+    @property
+    def thrust_min(self) -> np.ndarray:
+        """Per-thruster reverse limits (8,), N (negative)."""
+        return self.params.thrust_limits_N[:, 0].copy()
+
+    @property
+    def thrust_max(self) -> np.ndarray:
+        """Per-thruster forward limits (8,), N."""
+        return self.params.thrust_limits_N[:, 1].copy()
+
+    def state_derivative(
+        self,
+        x: np.ndarray,
+        u: np.ndarray,
+        flow_ned: np.ndarray | None = None,
+        flow_ned_dot: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """x_dot (12,) of paper eqs. (1)-(2) at state ``x`` (12,) with thrusts ``u`` (8,, N).
+
+        ``flow_ned`` is the water velocity at the vehicle in {n} (m/s, default still water);
+        ``flow_ned_dot`` its rate of change along the vehicle's path (m/s^2, default zero).
+        """
+        f = self.model.function("xdot")
+        vc = np.zeros(3) if flow_ned is None else np.asarray(flow_ned, dtype=float)
+        vcd = np.zeros(3) if flow_ned_dot is None else np.asarray(flow_ned_dot, dtype=float)
+        return np.asarray(f(np.asarray(x, float), np.asarray(u, float), vc, vcd)).ravel()
+
+    def stepper(self, dt: float, substeps: int = 4, flow: Any = None) -> ca.Function:
+        """Truth integrator ``(x[12], u[8], t) -> x(t + dt)`` through a flow field.
+
+        RK4 with ``substeps`` steps; thrust held constant (zero-order hold).  ``flow`` is a
+        :class:`auvdock.flow.FlowField` (None: still water); the field is evaluated at the
+        vehicle's position and time inside every RK4 stage, and its rate of change along
+        the path, ``dv_c/dt = dv/dt + (dv/dp) R nu_1``, enters the added-mass term.
+        """
+        key = (float(dt), int(substeps), id(flow))
+        if key in self._steppers:
+            return self._steppers[key]
+        x = ca.SX.sym("x", 12)
+        u = ca.SX.sym("u", 8)
+        t = ca.SX.sym("t")
+        m = self.model
+
+        def xdot(xs: ca.SX, ts: ca.SX) -> ca.SX:
+            if flow is None:
+                return m.dynamics(xs, u, ca.DM.zeros(3), ca.DM.zeros(3))
+            p = ca.SX.sym("p", 3)
+            tt = ca.SX.sym("tt")
+            v = flow.symbolic(p, tt)
+            field = ca.Function("field", [p, tt], [v, ca.jacobian(v, p), ca.jacobian(v, tt)])
+            vc, dv_dp, dv_dt = field(xs[0:3], ts)
+            p_dot = ca.mtimes(m.rotation(xs[0:6]), xs[6:9])
+            return m.dynamics(xs, u, vc, dv_dt + ca.mtimes(dv_dp, p_dot))
+
+        def f(z: ca.SX) -> ca.SX:  # augmented state [x; t]
+            return ca.vertcat(xdot(z[0:12], z[12]), 1)
+
+        z = rk4(f, ca.vertcat(x, t), dt, substeps)
+        fn = ca.Function("truth_step", [x, u, t], [z[0:12]], ["x", "u", "t"], ["x_next"])
+        self._steppers[key] = fn
+        self._flow_refs = getattr(self, "_flow_refs", []) + [flow]  # keep id() keys valid
+        return fn
+
+
+def load_vehicle(
+    name_or_path: str | Path = "bluerov2_heavy",
+    overrides: dict[str, Any] | None = None,
+    thruster_voltage_V: int | None = None,
+) -> Vehicle:
+    """Load a vehicle by preset name or parameter-file path; see :func:`load_params`."""
+    return Vehicle(load_params(name_or_path, overrides, thruster_voltage_V))
