@@ -89,11 +89,18 @@ class VehicleSpec(_Strict):
     """Which vehicle: a shipped preset or a parameter file, plus overrides."""
 
     preset: str | None = Field(
-        default=None, description="shipped parameter set: bluerov2_heavy (default) or bluerov2_heavy_vonbenzon"
+        default=None,
+        description="shipped parameter set: bluerov2_heavy (default) or bluerov2_heavy_vonbenzon",
     )
-    file: str | None = Field(default=None, description="path of a parameter YAML file (relative to the mission)")
-    overrides: dict[str, Any] = Field(default_factory=dict, description="parameter keys to replace, e.g. mass_kg")
-    thruster_voltage_V: Literal[12, 16] = Field(default=16, description="battery voltage; selects T200 limits")
+    file: str | None = Field(
+        default=None, description="path of a parameter YAML file (relative to the mission)"
+    )
+    overrides: dict[str, Any] = Field(
+        default_factory=dict, description="parameter keys to replace, e.g. mass_kg"
+    )
+    thruster_voltage_V: Literal[12, 16] = Field(
+        default=16, description="battery voltage; selects T200 limits"
+    )
 
     @field_validator("preset")
     @classmethod
@@ -115,11 +122,15 @@ class FlowSpec(_Strict):
     """The water: a paper case by name, or an explicit field."""
 
     case: str | None = Field(default=None, description="case1..case6 or an alias (still, gyre, ...)")
-    type: Literal["still", "constant", "double_gyre"] | None = Field(default=None, description="explicit field")
+    type: Literal["still", "constant", "double_gyre"] | None = Field(
+        default=None, description="explicit field"
+    )
     velocity_ned_m_s: list[float] | None = Field(
         default=None, description="constant current (north, east) or (north, east, 0), m/s"
     )
-    amplitude_m_s: NonNegFloat | None = Field(default=None, description="double gyre A (peak speed ~ pi A), m/s")
+    amplitude_m_s: NonNegFloat | None = Field(
+        default=None, description="double gyre A (peak speed ~ pi A), m/s"
+    )
     period_h: PosFloat | None = Field(default=None, description="double gyre period T, hours")
     epsilon: NonNegFloat = Field(default=0.3, description="double gyre eps")
 
@@ -235,7 +246,9 @@ class WeightsSpec(_Strict):
 class BoundsSpec(_Strict):
     """State bounds of the MPC (parameters.md section 4)."""
 
-    relative_velocity_max_m_s: Vec3Pos = Field(default=[2.5, 2.5, 2.5], description="|u_r|, |v_r|, |w_r|, m/s")
+    relative_velocity_max_m_s: Vec3Pos = Field(
+        default=[2.5, 2.5, 2.5], description="|u_r|, |v_r|, |w_r|, m/s"
+    )
     angular_rate_max_rad_s: Vec3Pos = Field(default=[0.25, 0.25, 0.25], description="|p|, |q|, |r|, rad/s")
 
 
@@ -256,7 +269,9 @@ class ControllerSpec(_Strict):
     weights: WeightsSpec = Field(default_factory=WeightsSpec)
     bounds: BoundsSpec = Field(default_factory=BoundsSpec)
     solver: SolverSpec = Field(default_factory=SolverSpec)
-    alpha: NonNegFloat = Field(default=1e-3, description="Optimized FSE-MPC weight on the information metric F")
+    alpha: NonNegFloat = Field(
+        default=1e-3, description="Optimized FSE-MPC weight on the information metric F"
+    )
     perception_wrench_max: Vec6Pos = Field(
         default=[0.1, 0.1, 0.1, 0.1, 0.1, 0.1],
         description="Sequential FSE-MPC: bound of the active-perception wrench (N, N m), 6 values",
@@ -410,9 +425,9 @@ def _problem(err: dict[str, Any]) -> str:
     if kind == "finite_number":
         return "must be a finite number (no NaN or inf)"
     if msg.startswith("Value error, "):
-        msg = msg[len("Value error, "):]
+        msg = msg[len("Value error, ") :]
     elif msg.startswith("Assertion failed, "):
-        msg = msg[len("Assertion failed, "):]
+        msg = msg[len("Assertion failed, ") :]
     else:
         msg = msg[0].lower() + msg[1:] if msg else msg
     if "input" in err and kind not in ("missing",) and not isinstance(err["input"], (dict, list)):

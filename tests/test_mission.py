@@ -32,7 +32,16 @@ docking: {tolerance_m: 0.05, timeout_s: 75}
 
 def test_shipped_missions_exist() -> None:
     names = {p.stem for p in MISSIONS}
-    assert {"still", "diagonal", "south", "east_strong", "gyre", "gyre_fast", "tank_0p6hz", "tank_0p8hz"} <= names
+    assert {
+        "still",
+        "diagonal",
+        "south",
+        "east_strong",
+        "gyre",
+        "gyre_fast",
+        "tank_0p6hz",
+        "tank_0p8hz",
+    } <= names
 
 
 @pytest.mark.parametrize("path", MISSIONS, ids=[p.stem for p in MISSIONS])
@@ -87,24 +96,55 @@ def _edit(text: str, old: str, new: str) -> str:
 # (id, mission text, expected field path, expected words in the problem)
 BAD = [
     ("unknown_key", GOOD + "colour: red\n", "colour", "unknown key"),
-    ("unknown_nested_key", _edit(GOOD, "heave: {", "heave: {ampl_m: 1, "), "dock.heave.ampl_m", "unknown key"),
-    ("wrong_type", _edit(GOOD, "horizon_steps: 10", "horizon_steps: ten"), "controller.horizon_steps", "integer"),
+    (
+        "unknown_nested_key",
+        _edit(GOOD, "heave: {", "heave: {ampl_m: 1, "),
+        "dock.heave.ampl_m",
+        "unknown key",
+    ),
+    (
+        "wrong_type",
+        _edit(GOOD, "horizon_steps: 10", "horizon_steps: ten"),
+        "controller.horizon_steps",
+        "integer",
+    ),
     ("nan", _edit(GOOD, "amplitude_m: 0.5", "amplitude_m: .nan"), "dock.heave.amplitude_m", "finite"),
     ("inf", _edit(GOOD, "timeout_s: 75", "timeout_s: .inf"), "docking.timeout_s", "finite"),
     ("zero_dt", _edit(GOOD, "dt_s: 0.05", "dt_s: 0"), "controller.dt_s", "greater than 0"),
     ("negative_dt", _edit(GOOD, "dt_s: 0.05", "dt_s: -0.05"), "controller.dt_s", "greater than 0"),
-    ("horizon_zero", _edit(GOOD, "horizon_steps: 10", "horizon_steps: 0"), "controller.horizon_steps",
-     "greater than or equal to 1"),
-    ("tolerance_zero", _edit(GOOD, "tolerance_m: 0.05", "tolerance_m: 0"), "docking.tolerance_m", "greater than 0"),
+    (
+        "horizon_zero",
+        _edit(GOOD, "horizon_steps: 10", "horizon_steps: 0"),
+        "controller.horizon_steps",
+        "greater than or equal to 1",
+    ),
+    (
+        "tolerance_zero",
+        _edit(GOOD, "tolerance_m: 0.05", "tolerance_m: 0"),
+        "docking.tolerance_m",
+        "greater than 0",
+    ),
     ("unknown_flow_case", _edit(GOOD, "case: case2", "case: case9"), "flow.case", "unknown flow case"),
     ("unknown_vehicle", GOOD + "vehicle: {preset: bluerov3}\n", "vehicle.preset", "unknown vehicle preset"),
-    ("negative_amplitude", _edit(GOOD, "amplitude_m: 0.5", "amplitude_m: -0.1"), "dock.heave.amplitude_m",
-     "greater than or equal to 0"),
-    ("short_start", _edit(GOOD, "state: [0, 0, 5, 0, 0, 0, 0, 0, 0, 0, 0, 0]", "state: [0, 0, 5]"),
-     "start.state", "must have 12 values"),
+    (
+        "negative_amplitude",
+        _edit(GOOD, "amplitude_m: 0.5", "amplitude_m: -0.1"),
+        "dock.heave.amplitude_m",
+        "greater than or equal to 0",
+    ),
+    (
+        "short_start",
+        _edit(GOOD, "state: [0, 0, 5, 0, 0, 0, 0, 0, 0, 0, 0, 0]", "state: [0, 0, 5]"),
+        "start.state",
+        "must have 12 values",
+    ),
     ("bad_controller", _edit(GOOD, "type: oracle", "type: magic"), "controller.type", "naive"),
-    ("bad_override", GOOD + "vehicle: {overrides: {mass_lb: 30}}\n", "vehicle.overrides.mass_lb",
-     "not a vehicle parameter"),
+    (
+        "bad_override",
+        GOOD + "vehicle: {overrides: {mass_lb: 30}}\n",
+        "vehicle.overrides.mass_lb",
+        "not a vehicle parameter",
+    ),
     ("missing_name", GOOD.replace("name: t\n", ""), "name", "required"),
     ("yaml_syntax", GOOD + "dock: [unclosed\n", "", "YAML syntax error"),
     ("not_a_mapping", "- just\n- a list\n", "", "mapping"),
@@ -141,7 +181,9 @@ def test_exact_message_for_negative_amplitude(tmp_path: Path) -> None:
     p.write_text(_edit(GOOD, "amplitude_m: 0.5", "amplitude_m: -1.0"))
     with pytest.raises(MissionError) as ei:
         load_mission(p)
-    assert str(ei.value) == f"{p}: dock.heave.amplitude_m: input should be greater than or equal to 0 (got -1.0)"
+    assert (
+        str(ei.value) == f"{p}: dock.heave.amplitude_m: input should be greater than or equal to 0 (got -1.0)"
+    )
 
 
 def test_vehicle_file_relative_to_mission(tmp_path: Path) -> None:

@@ -262,6 +262,7 @@ class VehicleModel:
         * ``"xdot"``: (x[12], u[8], flow_ned[3], flow_ned_dot[3]) -> x_dot[12]
         * ``"xdot_relative"``: (x_r[12], u[8], flow_ned[3]) -> x_r_dot[12]
         * ``"accel"``: (x[12], u[8], flow_ned[3], flow_ned_dot[3]) -> (nu_dot[6], nu_r_dot[6])
+        * ``"rotation"``: (angles[3] = phi, theta, psi) -> R[3x3], {b} -> {n}
         """
         if name not in self._functions:
             x = ca.SX.sym("x", 12)
@@ -274,6 +275,9 @@ class VehicleModel:
             elif name == "xdot_relative":
                 f = ca.Function("xdot_relative", [x, u, vc], [self.relative_dynamics(x, u, vc)],
                                 ["x_r", "u", "flow_ned"], ["x_r_dot"])
+            elif name == "rotation":
+                ang = ca.SX.sym("angles", 3)
+                f = ca.Function("rotation", [ang], [Rzyx(ang[0], ang[1], ang[2])], ["angles"], ["R"])
             elif name == "accel":
                 nd, nrd = self.accelerations(x, self.wrench(u), vc, vcd)
                 f = ca.Function("accel", [x, u, vc, vcd], [nd, nrd],

@@ -96,7 +96,9 @@ class VehicleParams:
             pos = np.asarray(th["positions_m"], dtype=float)
             dirs = np.asarray(th["directions"], dtype=float)
         except (KeyError, TypeError, ValueError):
-            raise VehicleParamsError("thrusters", "needs positions_m and directions (8 x 3 numbers)") from None
+            raise VehicleParamsError(
+                "thrusters", "needs positions_m and directions (8 x 3 numbers)"
+            ) from None
         if pos.shape != (8, 3):
             raise VehicleParamsError("thrusters.positions_m", f"must be 8 x 3, got shape {pos.shape}")
         if dirs.shape != (8, 3):

@@ -1,0 +1,460 @@
+"""The docking MPC of paper eq. (10), built once per run from the one vehicle model.
+
+Problem (multiple shooting, horizon N, step dt)::
+
+    min  sum_{k=1}^{N-1} ||e_k||_Q^2 + sum_{k=0}^{N-1} ||u_k - u_{k-1}||_R^2 + ||e_N||_P^2  [- alpha F]
+    s.t. x_0 = x(t),  x_{k+1} = RK4(f_pred, x_k, u_k + u_off, dt),
+         u_min - u_off <= u_k <= u_max - u_off,
+         |nu_r,1| <= v_max,  |nu_2| <= w_max          (k = 1..N)
+
+where ``u_{-1}`` is the input applied last, ``e_k = [p_k - p_W(t_k); Theta_k - (0, 0, psi_W);
+nu_k - nu_W(t_k)]`` compares the vehicle with the dock's predicted state (Assumption 2; the
+velocity reference is the dock's velocity over ground expressed in {b}, equivalently the
+dock's velocity minus the flow for the relative velocity) and ``u_off`` is an optional
+fixed input offset (the active-perception input of Sequential FSE-MPC).
+
+Prediction models (``prediction``), all from :class:`auvdock.vehicle.model.VehicleModel`:
+
+* ``"naive"`` -- eqs. (1)-(2) with no current (nu_c = 0);
+* ``"kinematic"`` -- state [eta; nu_r], current only in the kinematics
+  (eta_dot = J(nu_r + nu_c)), dynamics eq. (6) with no flow terms;
+* ``"full"`` -- eqs. (1)-(2) with the flow given each solve (the true flow: Oracle MPC;
+  the estimated flow: the FSE-MPCs), held constant in {n} over the horizon.
+
+The problem is built ONCE; everything that changes between solves (state, last input,
+dock trajectory, heading reference, flow, input offset) is a parameter packed in one
+vector.  Each solve is warm-started from the previous solution shifted by one step.  A
+solve that fails or does not converge never raises: the caller gets the next input of the
+last good plan (or zero thrust if there is none) with a status code saying so.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Literal
+
+import casadi as ca
+import numpy as np
+
+from ..dock import HeaveDock
+from ..vehicle import Vehicle
+from ..vehicle.model import rk4
+
+__all__ = [
+    "DockingMPC",
+    "MPCResult",
+    "STATUS_OK",
+    "STATUS_NOT_CONVERGED",
+    "STATUS_FAILED",
+    "STATUS_FALLBACK_ZERO",
+    "STATUS_NAMES",
+]
+
+STATUS_OK = 0
+STATUS_NOT_CONVERGED = 1
+STATUS_FAILED = 2
+STATUS_FALLBACK_ZERO = 3
+STATUS_NAMES = {
+    STATUS_OK: "ok",
+    STATUS_NOT_CONVERGED: "not_converged",
+    STATUS_FAILED: "failed",
+    STATUS_FALLBACK_ZERO: "fallback_zero",
+}
+
+Prediction = Literal["naive", "kinematic", "full"]
+
+
+@dataclass
+class MPCResult:
+    """Outcome of one MPC solve.
+
+    Attributes
+    ----------
+    thrust : ndarray (8,)
+        Thrust to apply now (N), including the input offset; within the thruster limits.
+    status : int
+        One of the ``STATUS_*`` codes.
+    solve_time_s : float
+        Wall time of the solve (s).
+    iterations : int
+        Solver iterations.
+    plan_state : ndarray (N+1, 12)
+        Predicted states of the plan that is being followed (over-ground velocities).
+    plan_thrust : ndarray (N, 8)
+        Planned thrusts (N), including the offset.
+    cost : float
+        Objective value (NaN on failure).
+    """
+
+    thrust: np.ndarray
+    status: int
+    solve_time_s: float
+    iterations: int
+    plan_state: np.ndarray
+    plan_thrust: np.ndarray
+    cost: float = math.nan
+    return_status: str = ""
+    extras: dict[str, float] = field(default_factory=dict)
+
+
+class DockingMPC:
+    """Paper eq. (10) MPC for docking with a heaving dock.
+
+    Parameters
+    ----------
+    vehicle : Vehicle
+        The vehicle (its symbolic model is the prediction model's source).
+    dock : HeaveDock
+        The dock whose motion is known over the horizon (Assumption 2).
+    horizon : int
+        N, steps.
+    dt : float
+        Step, s.
+    Q, R, P : array_like
+        Diagonals of the stage (12), input-rate (8) and terminal (12) weights.
+    v_rel_max : array_like (3,)
+        Bound on |nu_r,1| (m/s), relative velocity in {b}.
+    w_max : array_like (3,)
+        Bound on |nu_2| (rad/s).
+    prediction : {"naive", "kinematic", "full"}
+        Prediction model, see the module docstring.
+    solver : {"ipopt", "sqp"}
+        IPOPT (interior point) or CasADi's sqpmethod with the qrqp QP solver.
+    max_iter, tol : int, float
+        Solver iteration limit and tolerance.
+    hessian : {"gauss-newton", "exact"}
+        Hessian of the Lagrangian given to the solver.  Cost (10) is a weighted sum of
+        squared residuals, so the Gauss-Newton matrix ``2 J_r^T W J_r`` (no constraint
+        curvature) is cheap, positive semidefinite and close to the exact Hessian near
+        the reference; "exact" differentiates the model twice (several ms per evaluation
+        without compiled code).
+    objective_extra : callable, optional
+        ``f(X, U, params_sym) -> SX`` added to the objective (Optimized FSE-MPC's
+        ``-alpha F``); ``extra_params`` is then the number of extra parameters it reads.
+    """
+
+    def __init__(
+        self,
+        vehicle: Vehicle,
+        dock: HeaveDock,
+        *,
+        horizon: int = 10,
+        dt: float = 0.05,
+        Q: np.ndarray | list[float],
+        R: np.ndarray | list[float],
+        P: np.ndarray | list[float],
+        v_rel_max: np.ndarray | list[float] = (2.5, 2.5, 2.5),
+        w_max: np.ndarray | list[float] = (0.25, 0.25, 0.25),
+        prediction: Prediction = "full",
+        solver: str = "ipopt",
+        max_iter: int = 100,
+        tol: float = 1e-6,
+        hessian: str = "gauss-newton",
+        objective_extra=None,
+        extra_params: int = 0,
+    ) -> None:
+        if prediction not in ("naive", "kinematic", "full"):
+            raise ValueError(f"unknown prediction model {prediction!r}")
+        self.vehicle = vehicle
+        self.dock = dock
+        self.N = int(horizon)
+        self.dt = float(dt)
+        self.prediction = prediction
+        self.solver_name = solver
+        self.Q = np.asarray(Q, dtype=float)
+        self.R = np.asarray(R, dtype=float)
+        self.P = np.asarray(P, dtype=float)
+        self.v_rel_max = np.asarray(v_rel_max, dtype=float)
+        self.w_max = np.asarray(w_max, dtype=float)
+        self.u_min = vehicle.thrust_min
+        self.u_max = vehicle.thrust_max
+        self.n_extra = int(extra_params)
+        rot = vehicle.model.function("rotation")
+        self._R = lambda angles: np.asarray(rot(angles))  # R(Theta), {b} -> {n}
+        self._build(objective_extra, solver, max_iter, tol, hessian)
+        self.reset()
+
+    # ------------------------------------------------------------------------------------
+    def _build(self, objective_extra, solver: str, max_iter: int, tol: float, hessian: str) -> None:
+        N, dt = self.N, self.dt
+        model = self.vehicle.model
+        nx, nu = 12, 8
+
+        # parameters, packed in one vector
+        x0 = ca.SX.sym("x0", nx)
+        u_prev = ca.SX.sym("u_prev", nu)
+        dock_p = ca.SX.sym("dock_p", 3, N + 1)
+        dock_v = ca.SX.sym("dock_v", 3, N + 1)
+        psi_ref = ca.SX.sym("psi_ref")
+        flow = ca.SX.sym("flow_ned", 3)
+        u_off = ca.SX.sym("u_off", nu)
+        extra = ca.SX.sym("extra", self.n_extra)
+        params = ca.vertcat(x0, u_prev, ca.vec(dock_p), ca.vec(dock_v), psi_ref, flow, u_off, extra)
+        self._n_params = params.shape[0]
+
+        # one-step prediction
+        xs = ca.SX.sym("xs", nx)
+        us = ca.SX.sym("us", nu)
+        if self.prediction == "naive":
+            zero = ca.DM.zeros(3)
+            f_pred = lambda x, u: model.dynamics(x, u, zero, zero)  # noqa: E731
+        elif self.prediction == "kinematic":
+            f_pred = lambda x, u: model.relative_dynamics(x, u, flow)  # noqa: E731
+        else:
+            zero = ca.DM.zeros(3)
+            f_pred = lambda x, u: model.dynamics(x, u, flow, zero)  # noqa: E731
+        step = ca.Function("step", [xs, us, flow], [rk4(f_pred, xs, dt, 1, us)])
+
+        X = ca.SX.sym("X", nx, N + 1)
+        U = ca.SX.sym("U", nu, N)
+        Qm, Rm, Pm = (ca.diag(ca.DM(w)) for w in (self.Q, self.R, self.P))
+
+        def over_ground(xk: ca.SX) -> ca.SX:
+            if self.prediction == "kinematic":
+                return xk[6:12] + ca.vertcat(model.body_flow(xk[0:6], flow), 0, 0, 0)
+            return xk[6:12]
+
+        def error(k: int) -> ca.SX:
+            xk = X[:, k]
+            R_nb = model.rotation(xk[0:6])
+            v_ref = ca.mtimes(R_nb.T, dock_v[:, k])
+            return ca.vertcat(
+                xk[0:3] - dock_p[:, k],
+                xk[3],
+                xk[4],
+                xk[5] - psi_ref,
+                over_ground(xk) - ca.vertcat(v_ref, 0, 0, 0),
+            )
+
+        # cost (10) as weighted residuals: J = sum_i wts_i r_i^2 (Gauss-Newton Hessian 2 J_r^T W J_r)
+        res, wts = [], []
+        g = []
+        for k in range(N):
+            if k >= 1:
+                res.append(error(k))
+                wts.append(self.Q)
+            du = U[:, k] - (u_prev if k == 0 else U[:, k - 1])
+            res.append(du)
+            wts.append(self.R)
+            g.append(X[:, k + 1] - step(X[:, k], U[:, k] + u_off, flow))
+        res.append(error(N))
+        wts.append(self.P)
+        r = ca.vertcat(*res)
+        W = ca.DM(np.concatenate(wts))
+        J = ca.dot(W * r, r)
+        J_extra = 0
+        if objective_extra is not None:
+            J_extra = objective_extra(X, U + ca.repmat(u_off, 1, N), params, extra)
+        J = J + J_extra
+
+        w = ca.vertcat(ca.vec(X), ca.vec(U))
+        nlp = {"x": w, "f": J, "g": ca.vertcat(*g), "p": params}
+        self._nw = w.shape[0]
+        self._ng = nx * N
+        opts_common: dict = {"expand": True, "print_time": False, "error_on_fail": False}
+        if hessian == "gauss-newton":
+            lam_f = ca.SX.sym("lam_f")
+            lam_g = ca.SX.sym("lam_g", self._ng)
+            Jr = ca.jacobian(r, w)
+            H = 2 * ca.mtimes(Jr.T, ca.mtimes(ca.diag(W), Jr))
+            if objective_extra is not None:
+                H = H + ca.hessian(J_extra, w)[0]
+            H = lam_f * H
+            if solver == "ipopt":
+                H = ca.triu(H)
+            opts_common["hess_lag"] = ca.Function(
+                "nlp_hess_l", [w, params, lam_f, lam_g], [H], ["x", "p", "lam_f", "lam_g"], ["hess_gamma_x_x"]
+            )
+        elif hessian != "exact":
+            raise ValueError(f"unknown hessian {hessian!r} (known: gauss-newton, exact)")
+        if solver == "ipopt":
+            opts = dict(opts_common)
+            opts["ipopt"] = {
+                "print_level": 0,
+                "sb": "yes",
+                "max_iter": int(max_iter),
+                "tol": float(tol),
+                "acceptable_tol": 1e-4,
+                "warm_start_init_point": "yes",
+                "mu_init": 1e-2,
+                "warm_start_bound_push": 1e-6,
+                "warm_start_mult_bound_push": 1e-6,
+            }
+            self._solver = ca.nlpsol("mpc", "ipopt", nlp, opts)
+        elif solver == "sqp":
+            opts = dict(opts_common)
+            opts.update(
+                {
+                    "print_header": False,
+                    "print_iteration": False,
+                    "print_status": False,
+                    "max_iter": int(max_iter),
+                    "tol_pr": float(tol),
+                    "tol_du": float(tol) * 100,
+                    "hessian_approximation": "exact",
+                    "qpsol": "qrqp",
+                    "qpsol_options": {
+                        "print_iter": False,
+                        "print_header": False,
+                        "print_info": False,
+                        "error_on_fail": False,
+                    },
+                }
+            )
+            if hessian == "exact":
+                opts["convexify_strategy"] = "regularize"
+            self._solver = ca.nlpsol("mpc", "sqpmethod", nlp, opts)
+        else:
+            raise ValueError(f"unknown solver {solver!r} (known: ipopt, sqp)")
+
+        # index helpers into w
+        self._ix = np.arange(nx * (N + 1)).reshape(N + 1, nx)
+        self._iu = nx * (N + 1) + np.arange(nu * N).reshape(N, nu)
+
+    # ------------------------------------------------------------------------------------
+    def reset(self) -> None:
+        """Forget the previous solution (warm start and fallback plan)."""
+        self._w_prev: np.ndarray | None = None
+        self._lam_x: np.ndarray | None = None
+        self._lam_g: np.ndarray | None = None
+        self._plan_u: np.ndarray | None = None
+        self._plan_x: np.ndarray | None = None
+        self._plan_age = 0
+
+    def _to_model_state(self, x: np.ndarray, flow_ned: np.ndarray) -> np.ndarray:
+        """The measured state in the prediction model's coordinates."""
+        if self.prediction != "kinematic":
+            return x
+        xr = x.copy()
+        xr[6:9] -= self._R(x[3:6]).T @ flow_ned
+        return xr
+
+    def _bounds(
+        self, xm: np.ndarray, flow_ned: np.ndarray, u_off: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        N = self.N
+        lbx = np.full(self._nw, -np.inf)
+        ubx = np.full(self._nw, np.inf)
+        lbx[self._ix[0]] = xm
+        ubx[self._ix[0]] = xm
+        # relative velocity box, centred on the body-frame flow at the current attitude
+        if self.prediction == "full":
+            centre = self._R(xm[3:6]).T @ flow_ned
+        else:
+            centre = np.zeros(3)
+        for k in range(1, N + 1):
+            lbx[self._ix[k, 6:9]] = centre - self.v_rel_max
+            ubx[self._ix[k, 6:9]] = centre + self.v_rel_max
+            lbx[self._ix[k, 9:12]] = -self.w_max
+            ubx[self._ix[k, 9:12]] = self.w_max
+        lbx[self._iu] = self.u_min - u_off
+        ubx[self._iu] = self.u_max - u_off
+        return lbx, ubx
+
+    def solve(
+        self,
+        t: float,
+        x: np.ndarray,
+        u_prev: np.ndarray,
+        flow_ned: np.ndarray | None = None,
+        u_offset: np.ndarray | None = None,
+        extra: np.ndarray | None = None,
+    ) -> MPCResult:
+        """Solve once at time ``t`` (s) from state ``x`` (12, over-ground velocities).
+
+        Parameters
+        ----------
+        u_prev : ndarray (8,)
+            Thrust applied during the last period (N), for the input-rate cost.
+        flow_ned : ndarray (3,), optional
+            Flow used by the prediction (m/s, NED): the true flow for Oracle/Kinematic,
+            the estimate for FSE-MPC; ignored by Naive.
+        u_offset : ndarray (8,), optional
+            Fixed input added to every planned input (N).
+        extra : ndarray, optional
+            Extra parameters of ``objective_extra``.
+        """
+        x = np.asarray(x, dtype=float)
+        flow = np.zeros(3) if flow_ned is None else np.asarray(flow_ned, dtype=float)
+        u_off = np.zeros(8) if u_offset is None else np.asarray(u_offset, dtype=float)
+        ex = np.zeros(self.n_extra) if extra is None else np.asarray(extra, dtype=float)
+        xm = self._to_model_state(x, flow)
+        _, dp, dv = self.dock.trajectory(t, self.dt, self.N)
+        psi_d = self.dock.heading_rad
+        psi_ref = psi_d + 2 * math.pi * round((x[5] - psi_d) / (2 * math.pi))
+        p = np.concatenate([xm, u_prev - u_off, dp.ravel(), dv.ravel(), [psi_ref], flow, u_off, ex])
+        lbx, ubx = self._bounds(xm, flow, u_off)
+
+        if self._w_prev is None:
+            w0 = np.zeros(self._nw)
+            w0[self._ix] = xm
+            w0[self._iu] = np.clip(u_prev - u_off, lbx[self._iu], ubx[self._iu])
+        else:
+            w0 = _shift(self._w_prev, self._ix, self._iu)
+            w0[self._ix[0]] = xm
+        args = {"x0": w0, "p": p, "lbx": lbx, "ubx": ubx, "lbg": 0.0, "ubg": 0.0}
+        if self._lam_x is not None and self.solver_name != "ipopt":
+            args["lam_x0"] = self._lam_x
+            args["lam_g0"] = self._lam_g
+
+        t0 = time.perf_counter()
+        try:
+            sol = self._solver(**args)
+            stats = self._solver.stats()
+            ok = bool(stats.get("success", False))
+            ret = str(stats.get("return_status", ""))
+            iters = int(stats.get("iter_count", -1))
+            w_opt = np.asarray(sol["x"]).ravel()
+            finite = bool(np.all(np.isfinite(w_opt)))
+        except RuntimeError as e:  # CasADi evaluation errors
+            ok, ret, iters, finite, w_opt, sol = False, f"error: {e}", -1, False, None, None
+        solve_time = time.perf_counter() - t0
+
+        if ok and finite:
+            self._w_prev = w_opt
+            self._lam_x = np.asarray(sol["lam_x"]).ravel()
+            self._lam_g = np.asarray(sol["lam_g"]).ravel()
+            self._plan_u = w_opt[self._iu] + u_off
+            self._plan_x = self._from_model_states(w_opt[self._ix], flow)
+            self._plan_age = 0
+            thrust = np.clip(self._plan_u[0], self.u_min, self.u_max)
+            return MPCResult(
+                thrust, STATUS_OK, solve_time, iters, self._plan_x, self._plan_u, float(sol["f"]), ret
+            )
+
+        # fallback: next input of the last good plan, else zero thrust
+        status = STATUS_NOT_CONVERGED if finite else STATUS_FAILED
+        if self._plan_u is not None:
+            self._plan_age += 1
+            k = min(self._plan_age, self.N - 1)
+            thrust = np.clip(self._plan_u[k], self.u_min, self.u_max)
+            plan_x, plan_u = self._plan_x, self._plan_u
+        else:
+            status = STATUS_FALLBACK_ZERO
+            thrust = np.zeros(8)
+            plan_x = np.tile(x, (self.N + 1, 1))
+            plan_u = np.zeros((self.N, 8))
+        if finite and w_opt is not None:
+            # keep the (unconverged) iterate as the next warm start: usually closer than the old one
+            self._w_prev = w_opt
+        return MPCResult(thrust, status, solve_time, iters, plan_x, plan_u, math.nan, ret)
+
+    def _from_model_states(self, Xm: np.ndarray, flow_ned: np.ndarray) -> np.ndarray:
+        if self.prediction != "kinematic":
+            return Xm.copy()
+        X = Xm.copy()
+        for k in range(X.shape[0]):
+            X[k, 6:9] += self._R(X[k, 3:6]).T @ flow_ned
+        return X
+
+
+def _shift(w: np.ndarray, ix: np.ndarray, iu: np.ndarray) -> np.ndarray:
+    """Shift a solution one step forward in time, repeating the last state and input."""
+    out = w.copy()
+    out[ix[:-1]] = w[ix[1:]]
+    out[ix[-1]] = w[ix[-1]]
+    out[iu[:-1]] = w[iu[1:]]
+    out[iu[-1]] = w[iu[-1]]
+    return out
