@@ -186,8 +186,7 @@ class DoubleGyre(FlowField):
 
     def describe(self) -> str:
         return (
-            f"double gyre, A = {self.amplitude:.4g}, T = {self.period_s / 3600:.4g} h, "
-            f"eps = {self.epsilon:g}"
+            f"double gyre, A = {self.amplitude:.4g}, T = {self.period_s / 3600:.4g} h, eps = {self.epsilon:g}"
         )
 
 

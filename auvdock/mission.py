@@ -255,7 +255,9 @@ class BoundsSpec(_Strict):
 class SolverSpec(_Strict):
     """Numerical solver of the MPC problem."""
 
-    name: Literal["ipopt", "sqp"] = Field(default="ipopt", description="ipopt or sqp (sqpmethod + qrqp)")
+    name: Literal["ipopt", "sqp"] = Field(
+        default="sqp", description="sqp (sqpmethod + qrqp, Gauss-Newton) or ipopt (interior point)"
+    )
     max_iter: Annotated[int, Field(ge=1)] = Field(default=100, description="iteration limit per solve")
     tol: PosFloat = Field(default=1e-6, description="convergence tolerance")
 

@@ -39,6 +39,7 @@ import casadi as ca
 import numpy as np
 
 from ..dock import HeaveDock
+from ..results import STATUS_FAILED, STATUS_FALLBACK_ZERO, STATUS_NAMES, STATUS_NOT_CONVERGED, STATUS_OK
 from ..vehicle import Vehicle
 from ..vehicle.model import rk4
 
@@ -51,17 +52,6 @@ __all__ = [
     "STATUS_FALLBACK_ZERO",
     "STATUS_NAMES",
 ]
-
-STATUS_OK = 0
-STATUS_NOT_CONVERGED = 1
-STATUS_FAILED = 2
-STATUS_FALLBACK_ZERO = 3
-STATUS_NAMES = {
-    STATUS_OK: "ok",
-    STATUS_NOT_CONVERGED: "not_converged",
-    STATUS_FAILED: "failed",
-    STATUS_FALLBACK_ZERO: "fallback_zero",
-}
 
 Prediction = Literal["naive", "kinematic", "full"]
 

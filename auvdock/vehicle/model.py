@@ -270,18 +270,33 @@ class VehicleModel:
             vc = ca.SX.sym("flow_ned", 3)
             vcd = ca.SX.sym("flow_ned_dot", 3)
             if name == "xdot":
-                f = ca.Function("xdot", [x, u, vc, vcd], [self.dynamics(x, u, vc, vcd)],
-                                ["x", "u", "flow_ned", "flow_ned_dot"], ["xdot"])
+                f = ca.Function(
+                    "xdot",
+                    [x, u, vc, vcd],
+                    [self.dynamics(x, u, vc, vcd)],
+                    ["x", "u", "flow_ned", "flow_ned_dot"],
+                    ["xdot"],
+                )
             elif name == "xdot_relative":
-                f = ca.Function("xdot_relative", [x, u, vc], [self.relative_dynamics(x, u, vc)],
-                                ["x_r", "u", "flow_ned"], ["x_r_dot"])
+                f = ca.Function(
+                    "xdot_relative",
+                    [x, u, vc],
+                    [self.relative_dynamics(x, u, vc)],
+                    ["x_r", "u", "flow_ned"],
+                    ["x_r_dot"],
+                )
             elif name == "rotation":
                 ang = ca.SX.sym("angles", 3)
                 f = ca.Function("rotation", [ang], [Rzyx(ang[0], ang[1], ang[2])], ["angles"], ["R"])
             elif name == "accel":
                 nd, nrd = self.accelerations(x, self.wrench(u), vc, vcd)
-                f = ca.Function("accel", [x, u, vc, vcd], [nd, nrd],
-                                ["x", "u", "flow_ned", "flow_ned_dot"], ["nu_dot", "nu_r_dot"])
+                f = ca.Function(
+                    "accel",
+                    [x, u, vc, vcd],
+                    [nd, nrd],
+                    ["x", "u", "flow_ned", "flow_ned_dot"],
+                    ["nu_dot", "nu_r_dot"],
+                )
             else:
                 raise KeyError(f"unknown model function {name!r}")
             self._functions[name] = f

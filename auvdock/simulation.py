@@ -1,0 +1,261 @@
+"""The closed-loop simulation: truth model + flow field + dock + :class:`Autopilot`.
+
+Every control period dt the autopilot gets a :class:`Measurement` of the true state
+(Assumption 1), the true flow at the vehicle (used by Kinematic and Oracle MPC only,
+Assumption 3) and simulated inertial sensors, and returns thrust, which is held for dt
+(zero-order hold) while the truth model (eqs. 1-2 with the flow field evaluated at the
+vehicle's position and time) is integrated with RK4 substeps.
+
+The run ends when the vehicle is within ``docking.tolerance_m`` of the dock (docked) or at
+``docking.timeout_s`` (failure, with the closest approach recorded).  Every step is
+written to the results file as it happens (:mod:`auvdock.results`), so an interrupted run
+leaves a readable file marked ``complete = False``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .autopilot import Autopilot
+from .controllers import Measurement
+from .mission import Mission
+from .results import STATUS_NAMES, STATUS_OK, RunWriter
+
+__all__ = ["Progress", "RunSummary", "simulate", "run_outcome"]
+
+
+@dataclass
+class Progress:
+    """Progress of a running simulation, passed to the ``progress`` callback each step."""
+
+    t: float
+    timeout_s: float
+    distance_m: float
+    solve_time_s: float
+    status: int
+    step: int
+
+
+@dataclass
+class RunSummary:
+    """Outcome of one run (also stored as attributes of the results group)."""
+
+    mission: str
+    controller: str
+    outcome: dict[str, Any]
+    path: Path | None = None
+    solve_times_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    @property
+    def docked(self) -> bool:
+        return bool(self.outcome.get("docked", False))
+
+
+def _wrap(a: float) -> float:
+    return (a + math.pi) % (2 * math.pi) - math.pi
+
+
+def run_outcome(
+    *,
+    docked: bool,
+    t_end: float,
+    states: list[np.ndarray],
+    distances: list[float],
+    solve_times: list[float],
+    statuses: list[int],
+    contact_state: np.ndarray | None,
+    dock_velocity: np.ndarray | None,
+    dock_heading: float,
+    rotation: Callable[[np.ndarray], np.ndarray],
+    wall_time_s: float,
+    reason: str,
+) -> dict[str, Any]:
+    """The outcome figures of a run (see the README's results layout)."""
+    pos = np.array([s[0:3] for s in states]) if states else np.zeros((0, 3))
+    if contact_state is not None:
+        pos = np.vstack([pos, contact_state[0:3]])
+    path_length = float(np.sum(np.linalg.norm(np.diff(pos, axis=0), axis=1))) if len(pos) > 1 else 0.0
+    st = np.asarray(solve_times, dtype=float)
+    contact_speed = heading_err = math.nan
+    if docked and contact_state is not None and dock_velocity is not None:
+        v_ned = rotation(contact_state[3:6]) @ contact_state[6:9]
+        contact_speed = float(np.linalg.norm(v_ned - dock_velocity))
+        heading_err = _wrap(float(contact_state[5]) - dock_heading)
+    return {
+        "docked": bool(docked),
+        "reason": reason,
+        "time_to_dock_s": float(t_end) if docked else math.nan,
+        "end_time_s": float(t_end),
+        "contact_speed_m_s": contact_speed,
+        "heading_error_rad": heading_err,
+        "closest_approach_m": float(min(distances)) if distances else math.nan,
+        "path_length_m": path_length,
+        "n_steps": len(states),
+        "solver_failures": int(np.sum(np.asarray(statuses) != STATUS_OK)) if statuses else 0,
+        "solve_time_median_s": float(np.median(st)) if st.size else math.nan,
+        "solve_time_p95_s": float(np.percentile(st, 95)) if st.size else math.nan,
+        "solve_time_p99_s": float(np.percentile(st, 99)) if st.size else math.nan,
+        "solve_time_max_s": float(np.max(st)) if st.size else math.nan,
+        "wall_time_s": float(wall_time_s),
+        "real_time_factor": float(t_end / wall_time_s) if wall_time_s > 0 else math.nan,
+    }
+
+
+def simulate(
+    mission: Mission,
+    *,
+    controller: str | None = None,
+    out: str | Path | Any | None = None,
+    group: str = "/",
+    progress: Callable[[Progress], None] | None = None,
+    timeout_s: float | None = None,
+    autopilot: Autopilot | None = None,
+) -> RunSummary:
+    """Run one closed-loop docking simulation.
+
+    Parameters
+    ----------
+    mission : Mission
+        The validated mission.
+    controller : str, optional
+        Controller name overriding ``mission.controller.type``.
+    out : path or h5py.File, optional
+        Results file to write (created; an existing run there is replaced); None: no file.
+    group : str
+        Run group inside ``out`` (``"/"`` for one run per file).
+    progress : callable, optional
+        Called with a :class:`Progress` after every control step.
+    timeout_s : float, optional
+        Override of ``mission.docking.timeout_s``.
+    autopilot : Autopilot, optional
+        A prebuilt autopilot (e.g. with a modified solver), else built from the mission.
+
+    Returns
+    -------
+    RunSummary
+        Outcome figures; the same figures are stored in the results file.
+    """
+    vehicle = mission.build_vehicle()
+    flow = mission.build_flow()
+    dock = mission.build_dock()
+    ap = autopilot or Autopilot(mission, vehicle, dock, controller)
+    ap.reset()
+    dt = mission.controller.dt_s
+    timeout = mission.docking.timeout_s if timeout_s is None else float(timeout_s)
+    tol = mission.docking.tolerance_m
+    truth_step = vehicle.stepper(dt, mission.simulation.substeps, flow)
+    rotation = vehicle.model.function("rotation")
+
+    def rot(angles: np.ndarray) -> np.ndarray:
+        return np.asarray(rotation(angles))
+
+    writer: RunWriter | None = None
+    if out is not None:
+        writer = RunWriter(
+            out if not isinstance(out, str) else Path(out),
+            group,
+            mission_yaml=mission.to_yaml(),
+            mission_name=mission.name,
+            controller=ap.name,
+            extra_series=ap.extra_series,
+            attrs={
+                "tolerance_m": tol,
+                "timeout_s": timeout,
+                "dt_s": dt,
+                "flow": flow.describe(),
+                "vehicle": vehicle.name,
+                "solver": mission.controller.solver.name,
+            },
+        )
+
+    x = mission.start_state()
+    n_max = int(math.ceil(timeout / dt - 1e-9))
+    states: list[np.ndarray] = []
+    distances: list[float] = []
+    solve_times: list[float] = []
+    statuses: list[int] = []
+    docked = False
+    contact_state = None
+    t_end = 0.0
+    reason = "timeout"
+    wall0 = time.perf_counter()
+    try:
+        for k in range(n_max):
+            t = k * dt
+            p_dock = dock.position(t)
+            v_dock = dock.velocity(t)
+            dist = float(np.linalg.norm(x[0:3] - p_dock))
+            if dist <= tol:
+                docked, contact_state, t_end, reason = True, x.copy(), t, "docked"
+                distances.append(dist)
+                break
+            v_c = flow.velocity(x[0:3], t)
+            out_k = ap.step(Measurement(t=t, state=x.copy(), flow_ned=v_c))
+            u = out_k.thrust
+            states.append(x.copy())
+            distances.append(dist)
+            solve_times.append(out_k.solve_time_s)
+            statuses.append(out_k.status)
+            if writer is not None:
+                writer.append(
+                    time_s=t,
+                    state=x,
+                    thrust_N=u,
+                    wrench=vehicle.allocation @ u,
+                    flow_ned_m_s=v_c,
+                    dock_position_m=p_dock,
+                    dock_velocity_m_s=v_dock,
+                    distance_m=dist,
+                    solve_time_s=out_k.solve_time_s,
+                    solver_status=out_k.status,
+                    **out_k.series,
+                )
+            if progress is not None:
+                progress(Progress(t, timeout, dist, out_k.solve_time_s, out_k.status, k))
+            x = np.asarray(truth_step(x, u, t)).ravel()
+            if not np.all(np.isfinite(x)):
+                reason = "diverged"
+                t_end = t + dt
+                break
+            t_end = t + dt
+        else:
+            # last state after the final period
+            dist = float(np.linalg.norm(x[0:3] - dock.position(t_end)))
+            distances.append(dist)
+            if dist <= tol:
+                docked, contact_state, reason = True, x.copy(), "docked"
+    except BaseException:  # Ctrl-C or an error: keep every finished step, complete = False
+        if writer is not None:
+            writer.close()
+        raise
+    wall = time.perf_counter() - wall0
+    outcome = run_outcome(
+        docked=docked,
+        t_end=t_end,
+        states=states,
+        distances=distances,
+        solve_times=solve_times,
+        statuses=statuses,
+        contact_state=contact_state,
+        dock_velocity=dock.velocity(t_end) if docked else None,
+        dock_heading=dock.heading_rad,
+        rotation=rot,
+        wall_time_s=wall,
+        reason=reason,
+    )
+    outcome["status_counts"] = ", ".join(
+        f"{STATUS_NAMES[s]}: {statuses.count(s)}" for s in sorted(set(statuses))
+    )
+    path = None
+    if writer is not None:
+        writer.finish(outcome)
+        path = Path(writer.filename)
+        writer.close()
+    return RunSummary(mission.name, ap.name, outcome, path, np.asarray(solve_times))

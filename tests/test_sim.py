@@ -1,0 +1,173 @@
+"""Closed-loop simulation with the baseline MPCs: outcomes, limits, the results file, failures."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from auvdock.cli import app
+from auvdock.mission import load_mission
+from auvdock.results import STATUS_OK, read_run
+from auvdock.simulation import simulate
+
+ROOT = Path(__file__).resolve().parents[1]
+runner = CliRunner()
+
+
+def mission(name: str, **updates):
+    m = load_mission(ROOT / "missions" / f"{name}.yaml")
+    return m.with_updates(**updates) if updates else m
+
+
+@pytest.fixture(scope="module")
+def oracle_case2(tmp_path_factory):
+    out = tmp_path_factory.mktemp("sim") / "case2_oracle.h5"
+    s = simulate(mission("diagonal", **{"controller.type": "oracle"}), out=out, timeout_s=40.0)
+    return s, out
+
+
+def test_oracle_docks_in_still_water() -> None:
+    s = simulate(mission("still", **{"controller.type": "oracle"}), timeout_s=40.0)
+    assert s.docked
+    assert s.outcome["closest_approach_m"] <= 0.05
+    assert s.outcome["solver_failures"] == 0
+
+
+def test_oracle_docks_in_case2(oracle_case2) -> None:
+    s, _ = oracle_case2
+    assert s.docked
+    assert s.outcome["time_to_dock_s"] < 40.0
+    # contact is gentle: the vehicle tracks the dock's velocity
+    assert s.outcome["contact_speed_m_s"] < 0.2
+    assert abs(s.outcome["heading_error_rad"]) < np.radians(5)
+
+
+def test_naive_fails_in_case2() -> None:
+    """The paper's finding: a controller blind to a 0.7 m/s current cannot close the last centimetres."""
+    s = simulate(mission("diagonal", **{"controller.type": "naive"}), timeout_s=40.0)
+    assert not s.docked
+    assert s.outcome["reason"] == "timeout"
+    assert s.outcome["closest_approach_m"] > 0.05
+
+
+def test_thrust_limits_never_exceeded(oracle_case2) -> None:
+    _, out = oracle_case2
+    r = read_run(out)
+    m = mission("diagonal").build_vehicle()
+    assert np.all(r.thrust_N >= m.thrust_min - 1e-9)
+    assert np.all(r.thrust_N <= m.thrust_max + 1e-9)
+    assert np.abs(r.thrust_N).max() > 1.0  # the controller did push
+
+
+def test_results_file_layout(oracle_case2) -> None:
+    s, out = oracle_case2
+    r = read_run(out)
+    T = s.outcome["n_steps"]
+    assert T > 10 and r.n_steps == T
+    shapes = {
+        "time_s": (T,),
+        "state": (T, 12),
+        "thrust_N": (T, 8),
+        "wrench": (T, 6),
+        "flow_ned_m_s": (T, 3),
+        "dock_position_m": (T, 3),
+        "dock_velocity_m_s": (T, 3),
+        "distance_m": (T,),
+        "solve_time_s": (T,),
+        "solver_status": (T,),
+    }
+    for name, shape in shapes.items():
+        assert getattr(r, name).shape == shape, name
+    assert r.complete
+    assert r.controller == "oracle"
+    assert "case2" in r.mission_yaml
+    assert r.outcome()["docked"] is True
+    np.testing.assert_allclose(r.time_s[1] - r.time_s[0], 0.05)
+    np.testing.assert_allclose(r.flow_ned_m_s[0], [0.5, 0.5, 0.0])
+    B = mission("diagonal").build_vehicle().allocation
+    np.testing.assert_allclose(r.wrench, r.thrust_N @ B.T, atol=1e-9)
+    assert np.all(r.solver_status == STATUS_OK)
+
+
+def test_interrupted_run_keeps_finished_steps(tmp_path: Path) -> None:
+    out = tmp_path / "interrupted.h5"
+    k_stop = 7
+
+    def interrupt(p) -> None:
+        if p.step + 1 == k_stop:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        simulate(mission("still"), out=out, progress=interrupt)
+    r = read_run(out)
+    assert r.n_steps == k_stop
+    assert r.complete is False
+    assert r.state.shape == (k_stop, 12)
+
+
+def test_solver_failure_does_not_stop_the_run(tmp_path: Path) -> None:
+    m = mission("still", **{"controller.solver.max_iter": 1})
+    out = tmp_path / "fail.h5"
+    s = simulate(m, out=out, timeout_s=2.0)
+    r = read_run(out)
+    assert r.complete
+    assert r.n_steps == 40  # every step of the 2 s ran
+    assert s.outcome["solver_failures"] > 0
+    assert np.count_nonzero(r.solver_status != STATUS_OK) == s.outcome["solver_failures"]
+    assert np.all(np.isfinite(r.thrust_N))
+
+
+def test_cli_sim_and_plot(tmp_path: Path) -> None:
+    res = runner.invoke(
+        app, ["sim", str(ROOT / "missions" / "still.yaml"), "--out", str(tmp_path), "--timeout", "40"]
+    )
+    assert res.exit_code == 0, res.output
+    h5 = tmp_path / "still_oracle.h5"
+    assert h5.is_file()
+    assert (tmp_path / "still_oracle_top_view.png").is_file()
+    assert "docked" in res.output
+    for p in tmp_path.glob("*.png"):
+        p.unlink()
+    res = runner.invoke(app, ["plot", str(h5)])
+    assert res.exit_code == 0, res.output
+    pngs = sorted(p.name for p in tmp_path.glob("*.png"))
+    assert pngs == sorted(
+        f"still_oracle_{n}.png" for n in ("trajectory_3d", "top_view", "distance", "thrust")
+    )
+
+
+def test_cli_sim_timeout_exits_1(tmp_path: Path) -> None:
+    res = runner.invoke(
+        app,
+        [
+            "sim",
+            str(ROOT / "missions" / "still.yaml"),
+            "--out",
+            str(tmp_path),
+            "--timeout",
+            "1",
+            "--no-plots",
+        ],
+    )
+    assert res.exit_code == 1
+    assert not list(tmp_path.glob("*.png"))
+
+
+def test_cli_sim_bad_controller_exit_2(tmp_path: Path) -> None:
+    res = runner.invoke(app, ["sim", str(ROOT / "missions" / "still.yaml"), "--controller", "magic"])
+    assert res.exit_code == 2
+    assert (
+        res.stderr.strip() == "error: --controller: unknown controller 'magic' "
+        "(known: naive, kinematic, oracle, sequential, optimized)"
+    )
+
+
+def test_cli_plot_not_a_results_file(tmp_path: Path) -> None:
+    p = tmp_path / "x.h5"
+    p.write_bytes(b"not hdf5")
+    res = runner.invoke(app, ["plot", str(p)])
+    assert res.exit_code == 2
+    assert str(p) in res.stderr
