@@ -296,13 +296,17 @@ class EstimatorSpec(_Strict):
 
 
 class SensorsSpec(_Strict):
-    """Simulated sensor noise (standard deviations); no velocity sensor (no DVL)."""
+    """Simulated sensor noise (standard deviations); no velocity over ground (no DVL)."""
 
-    position_std_m: NonNegFloat = Field(default=0.0, description="pose position noise, m")
-    attitude_std_rad: NonNegFloat = Field(default=0.0, description="pose attitude noise, rad")
-    gyro_std_rad_s: NonNegFloat = Field(default=0.0, description="angular-rate noise, rad/s")
+    position_std_m: NonNegFloat = Field(default=0.002, description="pose position noise, m")
+    attitude_std_rad: NonNegFloat = Field(default=0.002, description="pose attitude noise, rad")
+    gyro_std_rad_s: NonNegFloat = Field(default=0.001, description="angular-rate noise, rad/s")
     accel_std_m_s2: NonNegFloat = Field(default=0.0045, description="accelerometer noise, m/s^2")
     depth_rate_std_m_s: NonNegFloat = Field(default=0.0014, description="depth-rate noise, m/s")
+    relative_velocity_std_m_s: NonNegFloat = Field(
+        default=0.001,
+        description="noise of the velocity through the water (Assumption 1: state [eta; nu_r]), m/s",
+    )
 
 
 class DockingSpec(_Strict):

@@ -58,6 +58,45 @@ class RunSummary:
         return bool(self.outcome.get("docked", False))
 
 
+class SensorModel:
+    """Simulated inertial and pose sensors, seeded (same seed, same readings).
+
+    Readings at t_k (noise standard deviations from ``mission.sensors``):
+    ``pose`` (6,) eta + noise; ``gyro_rad_s`` (3,) nu_2 + noise; ``relative_velocity_m_s`` (3,)
+    the linear velocity through the water nu_r1 + noise (Assumption 1 in the authors' state
+    [eta; nu_r]);  ``accel_m_s2`` (3,) the mean
+    body acceleration over the last period, ``(nu_1(t_k) - nu_1(t_(k-1))) / dt`` + noise
+    (gravity removed; absent at k = 0); ``depth_rate_m_s`` the z component of R nu_1 + noise.
+    """
+
+    def __init__(self, mission: Mission, rotation: Callable[[np.ndarray], np.ndarray]) -> None:
+        s = mission.sensors
+        self.rng = np.random.default_rng(mission.seed)
+        self.pos_std = s.position_std_m
+        self.att_std = s.attitude_std_rad
+        self.gyro_std = s.gyro_std_rad_s
+        self.acc_std = s.accel_std_m_s2
+        self.dr_std = s.depth_rate_std_m_s
+        self.vr_std = s.relative_velocity_std_m_s
+        self.rot = rotation
+
+    def read(
+        self, x: np.ndarray, x_prev: np.ndarray | None, dt: float, flow_ned: np.ndarray
+    ) -> dict[str, np.ndarray]:
+        n = self.rng.standard_normal(16)
+        R = self.rot(x[3:6])
+        pose = x[0:6] + np.concatenate([self.pos_std * n[0:3], self.att_std * n[3:6]])
+        out = {
+            "pose": pose,
+            "gyro_rad_s": x[9:12] + self.gyro_std * n[6:9],
+            "depth_rate_m_s": np.asarray(float(R[2] @ x[6:9]) + self.dr_std * n[12]),
+            "relative_velocity_m_s": x[6:9] - R.T @ flow_ned + self.vr_std * n[13:16],
+        }
+        if x_prev is not None:
+            out["accel_m_s2"] = (x[6:9] - x_prev[6:9]) / dt + self.acc_std * n[9:12]
+        return out
+
+
 def _wrap(a: float) -> float:
     return (a + math.pi) % (2 * math.pi) - math.pi
 
@@ -175,7 +214,10 @@ def simulate(
             },
         )
 
+    sensors = SensorModel(mission, rot)
+    record_true_body_flow = "flow_body_true_m_s" in ap.extra_series
     x = mission.start_state()
+    x_prev: np.ndarray | None = None
     n_max = int(math.ceil(timeout / dt - 1e-9))
     states: list[np.ndarray] = []
     distances: list[float] = []
@@ -197,7 +239,11 @@ def simulate(
                 distances.append(dist)
                 break
             v_c = flow.velocity(x[0:3], t)
-            out_k = ap.step(Measurement(t=t, state=x.copy(), flow_ned=v_c))
+            out_k = ap.step(
+                Measurement(t=t, state=x.copy(), flow_ned=v_c, sensors=sensors.read(x, x_prev, dt, v_c))
+            )
+            if record_true_body_flow:
+                out_k.series["flow_body_true_m_s"] = rot(x[3:6]).T @ v_c
             u = out_k.thrust
             states.append(x.copy())
             distances.append(dist)
@@ -219,6 +265,7 @@ def simulate(
                 )
             if progress is not None:
                 progress(Progress(t, timeout, dist, out_k.solve_time_s, out_k.status, k))
+            x_prev = x
             x = np.asarray(truth_step(x, u, t)).ravel()
             if not np.all(np.isfinite(x)):
                 reason = "diverged"

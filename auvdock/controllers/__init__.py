@@ -98,5 +98,7 @@ def build_controller(
     if name in BaselineMPC._PREDICTION:
         return BaselineMPC(name, mission, vehicle, dock)
     if name in ("sequential", "optimized"):
-        raise NotImplementedError(f"the {name} FSE-MPC controller is not available yet")
+        from .fse import FSEMPC
+
+        return FSEMPC(name, mission, vehicle, dock)
     raise ValueError(f"unknown controller {name!r} (known: {', '.join(CONTROLLER_NAMES)})")

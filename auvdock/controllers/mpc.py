@@ -123,6 +123,9 @@ class DockingMPC:
     objective_extra : callable, optional
         ``f(X, U, params_sym) -> SX`` added to the objective (Optimized FSE-MPC's
         ``-alpha F``); ``extra_params`` is then the number of extra parameters it reads.
+    extra_hessian : bool
+        Add the exact Hessian of ``objective_extra`` to the Gauss-Newton matrix.  False
+        gives it zero curvature (the QP stays convex; the term acts through its gradient).
     """
 
     def __init__(
@@ -144,6 +147,7 @@ class DockingMPC:
         hessian: str = "gauss-newton",
         objective_extra=None,
         extra_params: int = 0,
+        extra_hessian: bool = True,
     ) -> None:
         if prediction not in ("naive", "kinematic", "full"):
             raise ValueError(f"unknown prediction model {prediction!r}")
@@ -163,6 +167,7 @@ class DockingMPC:
         self.n_extra = int(extra_params)
         rot = vehicle.model.function("rotation")
         self._R = lambda angles: np.asarray(rot(angles))  # R(Theta), {b} -> {n}
+        self._extra_hessian = bool(extra_hessian)
         self._build(objective_extra, solver, max_iter, tol, hessian)
         self.reset()
 
@@ -249,7 +254,7 @@ class DockingMPC:
             lam_g = ca.SX.sym("lam_g", self._ng)
             Jr = ca.jacobian(r, w)
             H = 2 * ca.mtimes(Jr.T, ca.mtimes(ca.diag(W), Jr))
-            if objective_extra is not None:
+            if objective_extra is not None and self._extra_hessian:
                 H = H + ca.hessian(J_extra, w)[0]
             H = lam_f * H
             if solver == "ipopt":

@@ -1,0 +1,319 @@
+"""Flow state estimation (paper section IV.A; Chang et al.; parameters.md section 5).
+
+A Kalman filter on the body-frame flow ``f = nu_c1`` (3 states, m/s) from inertial
+measurements only -- no velocity sensor (no DVL):
+
+* process (paper eq. 4): ``f_dot = -S(nu_2) f``, discretised ``F_k = I - S(nu_2,k) dt``,
+  process noise ``Q_f`` per step;
+* measurements, from the accelerometer and the depth rate::
+
+      z = [ a_meas - nu_r1_dot_hat          ]  = H f + v,    H = [ -S(nu_2)     ]   (4 x 3)
+          [ z_dot_meas - e3^T R nu_r1_hat   ]                    [ e3^T R(eta)  ]
+
+  As in the paper's formulation (the authors' state is ``[eta; nu_r]``, Assumption 1), the
+  vehicle knows its pose and its velocity relative to the water ``nu_r`` (from a
+  model-based velocity observer or a water-track log) but neither its velocity over
+  ground nor the current.  ``nu_r1_hat`` is that relative velocity and ``nu_r1_dot_hat``
+  the relative acceleration the one vehicle model (eq. 6, which does not involve the
+  flow) predicts over the last period from it and the applied thrust.  Since
+  ``nu_1 = nu_r1 + f`` and ``f_dot = -S(nu_2) f``, the body acceleration is
+  ``nu_1_dot = nu_r1_dot - S(nu_2) f``: horizontal flow is seen only while the vehicle
+  rotates (with ``nu_2 = 0`` it is unobservable); the depth rate sees ``e3^T R f``.
+
+The accelerometer here reports the mean body-frame acceleration ``d nu_1 / dt`` over the
+last control period with gravity removed (a delta-velocity reading, as IMUs integrate);
+the model's relative acceleration is taken over the same period, so the two match.
+
+Information metric (paper eq. 8): ``F = lambda_min(G)``, with the constructability gramian
+propagated recursively (parameters.md)::
+
+    G_k = gamma F_k^-T G_(k-1) F_k^-1 + H_k^T R^-1 H_k,     G_0 = I,
+
+``gamma`` in (0, 1] an optional forgetting factor (1 = none).
+
+The interface (``predict``, ``update``, ``estimate``, ``covariance``, ``information``) is
+small so that another filter can replace this one.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from .vehicle import Vehicle
+from .vehicle.model import rk4
+
+__all__ = ["FlowKalmanFilter", "FlowEstimator", "EstimatorStep", "skew", "lambda_min_sym3"]
+
+
+def skew(a: np.ndarray) -> np.ndarray:
+    """S(a), 3x3 numpy, ``S(a) b = a x b``."""
+    return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+
+
+def lambda_min_sym3(G):
+    """Smallest eigenvalue of a symmetric 3x3 matrix, closed form, differentiable (CasADi or numpy).
+
+    Smith's trigonometric formula (O. K. Smith, "Eigenvalues of a symmetric 3x3 matrix",
+    CACM 4(4), 1961)::
+
+        q = tr(G)/3,  p = sqrt(sum (G_ii - q)^2 / 6 + (G_12^2 + G_13^2 + G_23^2) / 3)
+        r = det((G - q I)/p) / 2,   lambda_min = q + 2 p cos(acos(r)/3 + 2 pi/3)
+
+    Guards, so that derivatives stay finite: ``p`` is smoothed as
+    ``sqrt(p^2 + eps_p^2)`` with ``eps_p = 1e-9 (1 + |q|)`` (repeated eigenvalues, where the
+    exact ``p`` has an infinite derivative) and ``r`` is clipped to ``[-1 + 1e-9, 1 - 1e-9]``
+    (``acos`` has infinite slope at +-1).  The smoothing error is below ``3 eps_p``.  We use
+    the exact value rather than a smooth lower bound because the optimiser should see the
+    true trade-off of paper eq. (10); the guards only act on a set of measure zero.
+    """
+    lib = ca if isinstance(G, (ca.SX, ca.MX, ca.DM)) else np
+    g11, g22, g33 = G[0, 0], G[1, 1], G[2, 2]
+    g12, g13, g23 = G[0, 1], G[0, 2], G[1, 2]
+    q = (g11 + g22 + g33) / 3.0
+    p1 = g12 * g12 + g13 * g13 + g23 * g23
+    p2 = (g11 - q) ** 2 + (g22 - q) ** 2 + (g33 - q) ** 2 + 2.0 * p1
+    eps = 1e-9 * (1.0 + lib.fabs(q))
+    p = lib.sqrt(p2 / 6.0 + eps * eps)
+    b11, b22, b33 = (g11 - q) / p, (g22 - q) / p, (g33 - q) / p
+    b12, b13, b23 = g12 / p, g13 / p, g23 / p
+    det_b = b11 * (b22 * b33 - b23 * b23) - b12 * (b12 * b33 - b23 * b13) + b13 * (b12 * b23 - b22 * b13)
+    r = det_b / 2.0
+    lim = 1.0 - 1e-9
+    r = lib.fmin(lib.fmax(r, -lim), lim)
+    phi = lib.arccos(r) / 3.0 if lib is np else ca.acos(r) / 3.0
+    return q + 2.0 * p * lib.cos(phi + 2.0 * np.pi / 3.0)
+
+
+class FlowKalmanFilter:
+    """Linear Kalman filter on the body-frame flow with its constructability gramian.
+
+    Parameters
+    ----------
+    dt : float
+        Step, s.
+    prior_flow_body : ndarray (3,)
+        Initial estimate of f, m/s, body frame.
+    prior_var : float
+        Initial variance per axis, (m/s)^2.
+    process_noise : float
+        Q_f per axis per step, (m/s)^2.
+    meas_noise : ndarray (4,)
+        Diagonal of R: accelerometer (m/s^2)^2 x 3 and depth rate (m/s)^2.
+    forgetting_factor : float
+        gamma in (0, 1] of the gramian recursion.
+    """
+
+    def __init__(
+        self,
+        dt: float,
+        prior_flow_body: np.ndarray,
+        prior_var: float,
+        process_noise: float,
+        meas_noise: np.ndarray,
+        forgetting_factor: float = 1.0,
+    ) -> None:
+        self.dt = float(dt)
+        self.Qf = float(process_noise) * np.eye(3)
+        self.R = np.diag(np.asarray(meas_noise, dtype=float))
+        self.R_inv = np.linalg.inv(self.R)
+        self.gamma = float(forgetting_factor)
+        self.f = np.asarray(prior_flow_body, dtype=float).copy()
+        self.P = float(prior_var) * np.eye(3)
+        self.G = np.eye(3)
+        self.last_innovation = np.zeros(4)
+
+    @staticmethod
+    def transition(nu2: np.ndarray, dt: float) -> np.ndarray:
+        """F_k = I - S(nu_2) dt (3x3)."""
+        return np.eye(3) - skew(nu2) * dt
+
+    @staticmethod
+    def measurement_matrix(nu2: np.ndarray, R_nb: np.ndarray) -> np.ndarray:
+        """H = [-S(nu_2); e3^T R] (4x3)."""
+        return np.vstack([-skew(nu2), R_nb[2:3, :]])
+
+    def predict(self, nu2: np.ndarray) -> None:
+        """Time update over one step with angular rate ``nu2`` (rad/s); propagates G too."""
+        F = self.transition(nu2, self.dt)
+        self.f = F @ self.f
+        self.P = F @ self.P @ F.T + self.Qf
+        Fi = np.linalg.inv(F)
+        self.G = self.gamma * Fi.T @ self.G @ Fi
+
+    def update(self, z: np.ndarray, H: np.ndarray, R: np.ndarray | None = None) -> np.ndarray:
+        """Measurement update with ``z`` = H f + v (4 rows, or a subset with its ``R``).
+
+        Adds ``H^T R^-1 H`` to G; returns the innovation ``z - H f_prior``.
+        """
+        R = self.R if R is None else R
+        y = z - H @ self.f
+        S = H @ self.P @ H.T + R
+        K = np.linalg.solve(S, H @ self.P).T
+        self.f = self.f + K @ y
+        IKH = np.eye(3) - K @ H
+        self.P = IKH @ self.P @ IKH.T + K @ R @ K.T  # Joseph form
+        self.G = self.G + H.T @ np.linalg.inv(R) @ H
+        self.last_innovation = np.zeros(4)
+        self.last_innovation[: len(y)] = y
+        return y
+
+    def estimate(self) -> np.ndarray:
+        """Flow estimate f (3,), body frame, m/s."""
+        return self.f.copy()
+
+    def covariance(self) -> np.ndarray:
+        """Estimate covariance P (3x3), (m/s)^2."""
+        return self.P.copy()
+
+    def information(self) -> float:
+        """F = lambda_min(G) (paper eq. 8)."""
+        return float(np.linalg.eigvalsh(0.5 * (self.G + self.G.T))[0])
+
+
+@dataclass
+class EstimatorStep:
+    """Diagnostics of one estimator cycle."""
+
+    flow_body: np.ndarray
+    flow_ned: np.ndarray
+    covariance: np.ndarray
+    information: float
+    innovation: np.ndarray
+    state: np.ndarray  # estimated state (12,), over-ground velocity
+
+
+class FlowEstimator:
+    """The vehicle-side estimation pipeline: relative-velocity prediction + flow Kalman filter.
+
+    Each :meth:`step` takes the measurements at t_k (pose, gyro, accelerometer, depth rate)
+    and the thrust applied over [t_(k-1), t_k), and returns the estimated state
+    ``[eta; nu_r_hat + (f_hat, 0)]`` for the controller and the flow estimate in {n}.
+
+    Parameters
+    ----------
+    vehicle : Vehicle
+        The one model (its eq. (6) predicts the relative velocity).
+    dt : float
+        Control period, s.
+    prior_flow_ned : ndarray (3,)
+        Prior flow in {n}, m/s; rotated into {b} with the first measured attitude.
+    prior_std, process_noise, accel_noise_var, depth_rate_noise_var, forgetting_factor :
+        See :class:`auvdock.mission.EstimatorSpec`.
+    """
+
+    def __init__(
+        self,
+        vehicle: Vehicle,
+        dt: float,
+        prior_flow_ned: np.ndarray,
+        prior_std: float,
+        process_noise: float,
+        accel_noise_var: float,
+        depth_rate_noise_var: float,
+        forgetting_factor: float = 1.0,
+    ) -> None:
+        self.vehicle = vehicle
+        self.dt = float(dt)
+        self.prior_flow_ned = np.asarray(prior_flow_ned, dtype=float)
+        self.prior_var = float(prior_std) ** 2
+        self.process_noise = float(process_noise)
+        self.meas_noise = np.array([accel_noise_var] * 3 + [depth_rate_noise_var], dtype=float)
+        self.gamma = float(forgetting_factor)
+        m = vehicle.model
+        xr = ca.SX.sym("xr", 12)
+        u = ca.SX.sym("u", 8)
+        zero = ca.DM.zeros(3)
+        self._prop = ca.Function(
+            "nu_r_prop", [xr, u], [rk4(lambda x, uu: m.relative_dynamics(x, uu, zero), xr, self.dt, 2, u)]
+        )
+        self._rot = m.function("rotation")
+        self.kf: FlowKalmanFilter | None = None
+        self._prev: tuple[np.ndarray, np.ndarray] | None = None
+
+    def reset(self) -> None:
+        """Forget everything; the next :meth:`step` initialises from the prior."""
+        self.kf = None
+        self._prev = None
+
+    def R(self, angles: np.ndarray) -> np.ndarray:
+        return np.asarray(self._rot(angles))
+
+    def step(
+        self,
+        eta: np.ndarray,
+        nu_r: np.ndarray,
+        accel: np.ndarray | None,
+        depth_rate: float | None,
+        u_applied: np.ndarray,
+    ) -> EstimatorStep:
+        """One estimation cycle at t_k: predict over the last period, then correct.
+
+        Parameters
+        ----------
+        eta : ndarray (6,)
+            Measured pose at t_k (m, rad).
+        nu_r : ndarray (6,)
+            Velocity relative to the water at t_k, body frame (m/s; the angular part is the
+            gyro's rate, rad/s).
+        accel : ndarray (3,) or None
+            Mean body acceleration over the last period (m/s^2, gravity removed); None at
+            the first step.
+        depth_rate : float or None
+            Measured depth rate at t_k (m/s, positive down); None to skip that row.
+        u_applied : ndarray (8,)
+            Thrust held over the last period (N).
+
+        Returns
+        -------
+        EstimatorStep
+            Flow estimate (body and NED), covariance, F, innovation, and the estimated
+            state ``[eta; nu_r1 + f_hat; nu_2]`` (over-ground velocity) for the controller.
+        """
+        eta = np.asarray(eta, dtype=float)
+        nu_r = np.asarray(nu_r, dtype=float)
+        R_nb = self.R(eta[3:6])
+        if self.kf is None:
+            f0 = R_nb.T @ self.prior_flow_ned
+            self.kf = FlowKalmanFilter(
+                self.dt, f0, self.prior_var, self.process_noise, self.meas_noise, self.gamma
+            )
+        elif self._prev is not None:
+            eta_prev, nu_r_prev = self._prev
+            pred = np.asarray(self._prop(np.concatenate([eta_prev, nu_r_prev]), u_applied)).ravel()
+            nu_r1_dot = (pred[6:9] - nu_r_prev[0:3]) / self.dt
+            nu2_mid = 0.5 * (nu_r_prev[3:6] + nu_r[3:6])
+            self.kf.predict(nu2_mid)
+            if accel is not None:
+                H = FlowKalmanFilter.measurement_matrix(nu2_mid, R_nb)
+                z = np.concatenate([np.asarray(accel, dtype=float) - nu_r1_dot, [0.0]])
+                if depth_rate is None:
+                    self.kf.update(z[0:3], H[0:3], self.kf.R[0:3, 0:3])
+                else:
+                    z[3] = depth_rate - R_nb[2] @ nu_r[0:3]
+                    self.kf.update(z, H)
+        self._prev = (eta.copy(), nu_r.copy())
+        f = self.kf.estimate()
+        state = np.concatenate([eta, nu_r[0:3] + f, nu_r[3:6]])
+        return EstimatorStep(
+            f, R_nb @ f, self.kf.covariance(), self.kf.information(), self.kf.last_innovation.copy(), state
+        )
+
+    # the small interface, delegated
+    def estimate(self) -> np.ndarray:
+        """Flow estimate, body frame (3,), m/s."""
+        return np.zeros(3) if self.kf is None else self.kf.estimate()
+
+    def covariance(self) -> np.ndarray:
+        """Covariance of the flow estimate (3x3)."""
+        return self.prior_var * np.eye(3) if self.kf is None else self.kf.covariance()
+
+    def information(self) -> float:
+        """F = lambda_min(G)."""
+        return 1.0 if self.kf is None else self.kf.information()
+
+    def gramian(self) -> np.ndarray:
+        """G (3x3)."""
+        return np.eye(3) if self.kf is None else self.kf.G.copy()
