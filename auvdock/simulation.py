@@ -223,6 +223,7 @@ def simulate(
     distances: list[float] = []
     solve_times: list[float] = []
     statuses: list[int] = []
+    flow_errors: list[float] = []
     docked = False
     contact_state = None
     t_end = 0.0
@@ -243,7 +244,9 @@ def simulate(
                 Measurement(t=t, state=x.copy(), flow_ned=v_c, sensors=sensors.read(x, x_prev, dt, v_c))
             )
             if record_true_body_flow:
-                out_k.series["flow_body_true_m_s"] = rot(x[3:6]).T @ v_c
+                f_true = rot(x[3:6]).T @ v_c
+                out_k.series["flow_body_true_m_s"] = f_true
+                flow_errors.append(float(np.linalg.norm(out_k.series["flow_estimate_m_s"] - f_true)))
             u = out_k.thrust
             states.append(x.copy())
             distances.append(dist)
@@ -297,6 +300,10 @@ def simulate(
         wall_time_s=wall,
         reason=reason,
     )
+    if flow_errors:
+        e = np.asarray(flow_errors)
+        outcome["flow_rmse_m_s"] = float(np.sqrt(np.mean(e**2)))
+        outcome["flow_final_error_m_s"] = float(e[-1])
     outcome["status_counts"] = ", ".join(
         f"{STATUS_NAMES[s]}: {statuses.count(s)}" for s in sorted(set(statuses))
     )

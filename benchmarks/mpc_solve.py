@@ -34,8 +34,10 @@ def main() -> None:
 
     if not args.json:
         print(f"# {platform.processor() or platform.machine()}, {platform.python_version()}")
-        print(f"{'case':>4} {'controller':<10} {'solver':<6} {'docked':<6} {'t_dock s':>8} "
-              f"{'median ms':>9} {'p95 ms':>7} {'p99 ms':>7} {'max ms':>7} {'RTF':>6} {'fails':>5}")
+        print(
+            f"{'case':>4} {'controller':<10} {'solver':<6} {'docked':<6} {'t_dock s':>8} "
+            f"{'median ms':>9} {'p95 ms':>7} {'p99 ms':>7} {'max ms':>7} {'RTF':>6} {'fails':>5}"
+        )
     for case in args.cases:
         base = load_mission(ROOT / "missions" / f"{CASE_FILES[case]}.yaml")
         for ctrl in args.controllers:
@@ -45,20 +47,29 @@ def main() -> None:
                 o = s.outcome
                 ms = s.solve_times_s * 1e3
                 row = {
-                    "case": case, "controller": ctrl, "solver": solver, "docked": o["docked"],
-                    "time_to_dock_s": o["time_to_dock_s"], "median_ms": float(np.median(ms)),
-                    "p95_ms": float(np.percentile(ms, 95)), "p99_ms": float(np.percentile(ms, 99)),
-                    "max_ms": float(ms.max()), "real_time_factor": o["real_time_factor"],
-                    "solver_failures": o["solver_failures"], "closest_approach_m": o["closest_approach_m"],
+                    "case": case,
+                    "controller": ctrl,
+                    "solver": solver,
+                    "docked": o["docked"],
+                    "time_to_dock_s": o["time_to_dock_s"],
+                    "median_ms": float(np.median(ms)),
+                    "p95_ms": float(np.percentile(ms, 95)),
+                    "p99_ms": float(np.percentile(ms, 99)),
+                    "max_ms": float(ms.max()),
+                    "real_time_factor": o["real_time_factor"],
+                    "solver_failures": o["solver_failures"],
+                    "closest_approach_m": o["closest_approach_m"],
                 }
                 if args.json:
                     print(json.dumps(row))
                 else:
                     t = f"{o['time_to_dock_s']:.2f}" if o["docked"] else "timeout"
-                    print(f"{case:>4} {ctrl:<10} {solver:<6} {str(o['docked']):<6} {t:>8} "
-                          f"{row['median_ms']:9.2f} {row['p95_ms']:7.2f} {row['p99_ms']:7.2f} "
-                          f"{row['max_ms']:7.2f} {row['real_time_factor']:6.1f} {row['solver_failures']:>5}",
-                          flush=True)
+                    print(
+                        f"{case:>4} {ctrl:<10} {solver:<6} {str(o['docked']):<6} {t:>8} "
+                        f"{row['median_ms']:9.2f} {row['p95_ms']:7.2f} {row['p99_ms']:7.2f} "
+                        f"{row['max_ms']:7.2f} {row['real_time_factor']:6.1f} {row['solver_failures']:>5}",
+                        flush=True,
+                    )
 
 
 if __name__ == "__main__":

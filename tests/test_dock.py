@@ -14,8 +14,11 @@ PAPER = HeaveDock(
     position_ned_m=(2.0, 3.0, 5.0), heading_rad=0.0, amplitude_m=0.5, angular_frequency_rad_s=0.1
 )
 PHASED = HeaveDock(
-    position_ned_m=(-1.0, 4.0, 2.0), heading_rad=0.4, amplitude_m=0.0762,
-    angular_frequency_rad_s=2 * math.pi * 0.8, phase_rad=0.9,
+    position_ned_m=(-1.0, 4.0, 2.0),
+    heading_rad=0.4,
+    amplitude_m=0.0762,
+    angular_frequency_rad_s=2 * math.pi * 0.8,
+    phase_rad=0.9,
 )
 
 

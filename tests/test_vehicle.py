@@ -130,7 +130,6 @@ def test_mass_matrix_hand_values(veh):
     np.testing.assert_allclose(m.M, expected_rb + np.diag(ADDED), atol=1e-14)
 
 
-
 @pytest.fixture(scope="module")
 def offset_cg():
     return load_vehicle(overrides={"r_g_m": [0.03, -0.02, 0.05]})
@@ -145,6 +144,7 @@ def test_rigid_body_mass_gives_kinetic_energy(offset_cg, nu):
     r_g = np.array([0.03, -0.02, 0.05])
     ke = 0.5 * MASS * np.sum((v + np.cross(w, r_g)) ** 2) + 0.5 * w @ np.diag(INERTIA) @ w
     assert abs(0.5 * nu @ offset_cg.model.M_RB @ nu - ke) <= 1e-12 * (1 + ke)
+
 
 def test_mass_matrix_symmetric_positive_definite(veh):
     M = veh.model.M
@@ -216,7 +216,6 @@ def test_restoring_level_and_tilted(veh):
     ph = -0.2
     g = dm(veh.model.restoring(ca.DM([0, 0, 5, ph, 0, 0]))).ravel()
     np.testing.assert_allclose(g[3], Z_G * WEIGHT * math.sin(ph), rtol=1e-14)
-
 
 
 @SETTINGS
@@ -476,7 +475,7 @@ def test_spinning_vehicle_drifts_with_current(neutral):
     dt, T = 0.05, 10.0
     xs = simulate(neutral.stepper(dt, 4, ConstantCurrent(0.5, -0.3)), x, np.zeros(8), int(T / dt), dt)
     np.testing.assert_allclose(xs[-1, :3], x[:3] + vc * T, atol=1e-9)
-    for xk in xs[:: 20]:
+    for xk in xs[::20]:
         R = rot_np(*xk[3:6])
         np.testing.assert_allclose(xk[6:9] - R.T @ vc, 0.0, atol=1e-10)
         np.testing.assert_allclose(xk[[3, 4, 9, 10]], 0.0, atol=1e-12)
@@ -493,7 +492,6 @@ def test_relative_model_equals_truth_in_still_water(veh, eta, nu, thrust):
     truth = veh.state_derivative(x, 10 * thrust)
     rel = dm(veh.model.function("xdot_relative")(x, 10 * thrust, np.zeros(3))).ravel()
     np.testing.assert_allclose(rel, truth, rtol=1e-12, atol=1e-12)
-
 
 
 def _eq2_residual_through_gyre(veh, dt: float) -> tuple[float, float]:

@@ -7,15 +7,19 @@ driven by the ESTIMATED flow.
 * **Sequential FSE-MPC**: each step first solves the active-perception law (9),
   ``tau* = argmax_tau lambda_min(G_(k+1)(tau))`` over a bounded body wrench, one step
   ahead, as a small CasADi NLP (deterministic start, no random restarts); ``tau*`` is
-  mapped to thrusts with the allocation's pseudo-inverse and added to every input of the
-  MPC (alpha = 0), as in the authors' code.
+  mapped to thrusts with the allocation's pseudo-inverse and added to the MPC's input
+  (alpha = 0) before it is applied.  The MPC does not see the offset: an offset known to
+  the MPC is simply cancelled by it (its optimum shifts by minus the offset), which is
+  what adding it inside the optimisation variable, as the authors' code does, amounts to.
 * **Optimized FSE-MPC**: one MPC whose cost is eq. (10) minus ``alpha * sum_k F_k``, with
   the gramian propagated along the predicted horizon symbolically,
   ``G_k = F_k^-T G_(k-1) F_k^-1 + H_k^T R^-1 H_k`` (``F_k``, ``H_k`` from the predicted
   attitude and angular rate), so the optimiser sees how its motion improves observability.
-  ``F_k = lambda_min(G_k)`` uses the closed-form eigenvalue of
-  :func:`auvdock.estimator.lambda_min_sym3`.  The objective uses ``F_k - F_0`` (same
-  minimiser, moderate values).
+  In the optimiser ``F_k`` is the smooth lower bound
+  :func:`auvdock.estimator.information_lower_bound` ``1/tr(G_k^-1)``, within a factor 3 of
+  ``lambda_min(G_k)`` and tight when the smallest eigenvalue is separated (the docstring
+  says why not the guarded closed form).  The objective uses ``F_k - F_0`` (same
+  minimiser, moderate values).  The recorded metric F is the exact ``lambda_min``.
 
 Scaling of alpha: each step adds ``H^T R^-1 H`` to G, about ``|nu_2|^2 / sigma_a^2`` per
 axis (``sigma_a^2 = 2.029e-5 (m/s^2)^2``), so yawing at 0.1 rad/s for the 0.5 s horizon
@@ -32,10 +36,9 @@ import casadi as ca
 import numpy as np
 
 from ..dock import HeaveDock
-from ..estimator import FlowEstimator, lambda_min_sym3
+from ..estimator import FlowEstimator, flow_transition, information_lower_bound
 from ..mission import Mission
 from ..vehicle import Vehicle
-from ..vehicle.model import Smtrx
 from .base import ControlOutput, Measurement
 
 __all__ = ["FSEMPC", "PerceptionLaw", "gramian_step"]
@@ -56,19 +59,24 @@ def _six(G: np.ndarray) -> np.ndarray:
 def gramian_step(
     G: ca.SX, nu2: ca.SX, R_nb: ca.SX, dt: float, R_inv: np.ndarray, gamma: float = 1.0
 ) -> ca.SX:
-    """One step of the gramian recursion, symbolically: gamma F^-T G F^-1 + H^T R^-1 H."""
-    F = ca.DM.eye(3) - Smtrx(nu2) * dt
-    Fi = ca.inv(F)
-    H = ca.vertcat(-Smtrx(nu2), R_nb[2, :])
+    """One step of the gramian recursion, symbolically: gamma F^-T G F^-1 + H^T R^-1 H.
+
+    ``F = expm(-S(nu_2) dt)`` (so ``F^-1 = expm(S(nu_2) dt)``) and the accelerometer rows
+    of H are ``(I - F^-1)/dt``, the paper's ``-S(nu_2)`` to first order, as in the filter.
+    """
+    Fi = flow_transition(-nu2, dt, ca)
+    H = ca.vertcat((ca.DM.eye(3) - Fi) / dt, R_nb[2, :])
     return gamma * ca.mtimes([Fi.T, G, Fi]) + ca.mtimes([H.T, ca.DM(R_inv), H])
 
 
 class PerceptionLaw:
     """Active-perception law (9): the bounded wrench that maximises F one step ahead.
 
+    F is the smooth bound ``1/tr(G^-1)`` (see :func:`auvdock.estimator.information_lower_bound`).
     Solved with IPOPT from a deterministic start (the previous solution, else a yaw
     moment at its bound: at zero rate the gain of F is quadratic in the wrench, so a
-    start at zero would be a stationary point).
+    start at zero would be a stationary point).  A solve that stops at its iteration
+    limit with a finite wrench is used (its value is at least as good as the start's).
     """
 
     def __init__(
@@ -85,7 +93,7 @@ class PerceptionLaw:
         G_next = gramian_step(_sym_from6(g6), nu2_next, R_nb, dt, R_inv, gamma)
         # scale by the current F so the objective is O(1)
         scale = ca.SX.sym("scale")
-        obj = -lambda_min_sym3(G_next) / scale
+        obj = -information_lower_bound(G_next) / scale
         self.wrench_max = np.asarray(wrench_max, dtype=float)
         self._solver = ca.nlpsol(
             "perception",
@@ -110,7 +118,7 @@ class PerceptionLaw:
         start = self._prev.copy()
         if not np.any(start):
             start[5] = self.wrench_max[5]
-        F0 = max(float(np.linalg.eigvalsh(G)[0]), 1e-12)
+        F0 = max(float(information_lower_bound(G)), 1e-12)
         sol = self._solver(
             x0=start,
             lbx=-self.wrench_max,
@@ -119,8 +127,8 @@ class PerceptionLaw:
         )
         ok = bool(self._solver.stats().get("success", False))
         tau = np.clip(np.asarray(sol["x"]).ravel(), -self.wrench_max, self.wrench_max)
-        if not (ok and np.all(np.isfinite(tau))):
-            tau = np.zeros(6)
+        if not np.all(np.isfinite(tau)):
+            tau, ok = np.zeros(6), False
         self._prev = tau
         return tau, self._B_pinv @ tau, ok
 
@@ -157,6 +165,9 @@ class FSEMPC:
             e.accel_noise_var,
             e.depth_rate_noise_var,
             e.forgetting_factor,
+            gyro_std=mission.sensors.gyro_std_rad_s,
+            attitude_std=mission.sensors.attitude_std_rad,
+            relative_velocity_std=mission.sensors.relative_velocity_std_m_s,
         )
         R_inv = np.diag(1.0 / np.array([e.accel_noise_var] * 3 + [e.depth_rate_noise_var]))
         gamma = e.forgetting_factor
@@ -174,11 +185,11 @@ class FSEMPC:
                 J = 0
                 for k in range(1, X.shape[1]):
                     G = gramian_step(G, X[9:12, k], model.rotation(X[0:6, k]), dt, R_inv, gamma)
-                    J += lambda_min_sym3(G) - F0
+                    J += information_lower_bound(G) - F0
                 return -alpha * J
 
             self.mpc = build_mpc(
-                mission, vehicle, dock, "full", objective_extra=info_term, extra_params=7, extra_hessian=False
+                mission, vehicle, dock, "full", objective_extra=info_term, extra_params=7, extra_hessian=True
             )
 
     def reset(self) -> None:
@@ -201,10 +212,12 @@ class FSEMPC:
         t0 = time.perf_counter()
         if self.law is not None:
             tau, u_off, _ = self.law.solve(est.state, est.flow_ned, self.estimator.gramian())
-            r = self.mpc.solve(meas.t, est.state, u_prev, est.flow_ned, u_offset=u_off)
+            r = self.mpc.solve(meas.t, est.state, u_prev, est.flow_ned)
+            thrust = np.clip(r.thrust + u_off, self.vehicle.thrust_min, self.vehicle.thrust_max)
+            r.thrust = thrust
         else:
             G = self.estimator.gramian()
-            extra = np.concatenate([_six(G), [float(np.linalg.eigvalsh(G)[0])]])
+            extra = np.concatenate([_six(G), [float(information_lower_bound(G))]])
             r = self.mpc.solve(meas.t, est.state, u_prev, est.flow_ned, extra=extra)
         series = {
             "flow_estimate_m_s": est.flow_body,
