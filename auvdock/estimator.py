@@ -44,20 +44,15 @@ import numpy as np
 
 from .vehicle import Vehicle
 from .vehicle.model import rk4
+from .vehicle.model import skew_np as skew
 
 __all__ = [
     "FlowKalmanFilter",
     "FlowEstimator",
     "EstimatorStep",
-    "skew",
     "flow_transition",
     "information_lower_bound",
 ]
-
-
-def skew(a: np.ndarray) -> np.ndarray:
-    """S(a), 3x3 numpy, ``S(a) b = a x b``."""
-    return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
 
 
 def flow_transition(nu2, dt: float, lib=np):

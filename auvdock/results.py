@@ -685,13 +685,19 @@ def read_run(source: str | Path | h5py.File, group: str = "/") -> RunResults:
     gp = _normalize_group(group)
     if isinstance(source, h5py.File | h5py.Group):
         return _read_group(source.file, gp, str(source.file.filename))
+    path = _checked_path(source)
+    with h5py.File(path, "r") as f:
+        return _read_group(f, gp, str(path))
+
+
+def _checked_path(source: str | Path) -> Path:
+    """``source`` as a Path to an existing HDF5 file, else FileNotFoundError / ValueError."""
     path = Path(source)
     if not path.exists():
         raise FileNotFoundError(f"{path}: no such results file")
     if path.is_dir() or not h5py.is_hdf5(path):
         raise ValueError(f"{path}: not an auvdock results file (not an HDF5 file)")
-    with h5py.File(path, "r") as f:
-        return _read_group(f, gp, str(path))
+    return path
 
 
 def _read_group(f: h5py.File, gp: str, label: str) -> RunResults:
@@ -744,12 +750,7 @@ def list_runs(path: str | Path | h5py.File) -> list[str]:
     """
     if isinstance(path, h5py.File | h5py.Group):
         return _list_runs(path.file)
-    p = Path(path)
-    if not p.exists():
-        raise FileNotFoundError(f"{p}: no such results file")
-    if p.is_dir() or not h5py.is_hdf5(p):
-        raise ValueError(f"{p}: not an auvdock results file (not an HDF5 file)")
-    with h5py.File(p, "r") as f:
+    with h5py.File(_checked_path(path), "r") as f:
         return _list_runs(f)
 
 

@@ -329,7 +329,6 @@ class DockingMPC:
     def _bounds(
         self, xm: np.ndarray, flow_ned: np.ndarray, u_off: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
-        N = self.N
         lbx = np.full(self._nw, -np.inf)
         ubx = np.full(self._nw, np.inf)
         lbx[self._ix[0]] = xm
@@ -339,11 +338,10 @@ class DockingMPC:
             centre = self._R(xm[3:6]).T @ flow_ned
         else:
             centre = np.zeros(3)
-        for k in range(1, N + 1):
-            lbx[self._ix[k, 6:9]] = centre - self.v_rel_max
-            ubx[self._ix[k, 6:9]] = centre + self.v_rel_max
-            lbx[self._ix[k, 9:12]] = -self.w_max
-            ubx[self._ix[k, 9:12]] = self.w_max
+        lbx[self._ix[1:, 6:9]] = centre - self.v_rel_max
+        ubx[self._ix[1:, 6:9]] = centre + self.v_rel_max
+        lbx[self._ix[1:, 9:12]] = -self.w_max
+        ubx[self._ix[1:, 9:12]] = self.w_max
         lbx[self._iu] = self.u_min - u_off
         ubx[self._iu] = self.u_max - u_off
         return lbx, ubx
