@@ -193,9 +193,12 @@ def sim(
     h5 = out_dir / f"{m.name}_{name}.h5"
     limit = m.docking.timeout_s if timeout is None else timeout
 
+    from .controllers import resolve_solver
+
+    solver = resolve_solver(m.controller.solver.name, name)
     console.print(
         f"[bold]{m.name}[/bold]: {m.build_flow().describe()}; controller [bold]{name}[/bold] "
-        f"(N = {m.controller.horizon_steps}, dt = {m.controller.dt_s} s, {m.controller.solver.name})"
+        f"(N = {m.controller.horizon_steps}, dt = {m.controller.dt_s} s, {solver})"
     )
     with Progress(
         SpinnerColumn(),

@@ -46,7 +46,7 @@ __all__ = [
 ]
 
 CONTROLLER_TYPES = ("naive", "kinematic", "oracle", "sequential", "optimized")
-SOLVER_NAMES = ("ipopt", "sqp")
+SOLVER_NAMES = ("auto", "ipopt", "sqp")
 
 PosFloat = Annotated[float, Field(gt=0)]
 NonNegFloat = Annotated[float, Field(ge=0)]
@@ -255,8 +255,12 @@ class BoundsSpec(_Strict):
 class SolverSpec(_Strict):
     """Numerical solver of the MPC problem."""
 
-    name: Literal["ipopt", "sqp"] = Field(
-        default="sqp", description="sqp (sqpmethod + qrqp, Gauss-Newton) or ipopt (interior point)"
+    name: Literal["auto", "ipopt", "sqp"] = Field(
+        default="auto",
+        description=(
+            "sqp (sqpmethod + qrqp, Gauss-Newton), ipopt (interior point) or auto: "
+            "ipopt for the optimized controller (its information term is non-convex), sqp otherwise"
+        ),
     )
     max_iter: Annotated[int, Field(ge=1)] = Field(default=100, description="iteration limit per solve")
     tol: PosFloat = Field(default=1e-6, description="convergence tolerance")

@@ -314,9 +314,15 @@ def _flow_estimate(results: RunResults) -> Figure:
     if "flow_covariance" in results.extras:
         cov = _extra(results, "flow_covariance", (3, 3))
         sigma = np.sqrt(np.clip(np.diagonal(cov, axis1=1, axis2=2), 0.0, None))
-    fig = _new_figure((8.5, 7.5))
-    axes = fig.subplots(3, 1, sharex=True)
-    for i, ax in enumerate(axes):
+    fig = _new_figure((8.5, 9.5))
+    axes = fig.subplots(4, 1, sharex=True)
+    for i, ax in enumerate(axes[:3]):
+        # limits from the curves, not the band: the prior's 2 sigma (6 m/s) would flatten them
+        both = np.concatenate([true[:, i], est[:, i]])
+        both = both[np.isfinite(both)]
+        lo, hi = (float(both.min()), float(both.max())) if both.size else (-1.0, 1.0)
+        pad = max(0.1, 0.15 * (hi - lo))
+        ax.set_ylim(lo - pad, hi + pad)
         ax.plot(t, true[:, i], color="k", lw=1.5, label="true")
         ax.plot(t, est[:, i], color="tab:orange", lw=1.2, label="estimate")
         if sigma is not None:
@@ -327,6 +333,16 @@ def _flow_estimate(results: RunResults) -> Figure:
         ax.set_ylabel(f"{_BODY_AXES[i]}\n[m/s]")
         ax.grid(True, alpha=0.3)
     axes[0].legend(loc="best", fontsize="small")
+    err = np.linalg.norm(est - true, axis=1)
+    ax = axes[3]
+    ax.plot(t, err, color="tab:red", lw=1.2, label="|estimate - true|")
+    if sigma is not None:
+        ax.plot(t, 2 * np.linalg.norm(sigma, axis=1), color="tab:orange", lw=1.0, ls="--", label="2σ (norm)")
+    if np.all(err[np.isfinite(err)] > 0):
+        ax.set_yscale("log")
+    ax.set_ylabel("error\n[m/s]")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(loc="best", fontsize="small")
     axes[-1].set_xlabel("time [s]")
     fig.suptitle(_title(results, "Water velocity in the body frame: true vs estimated"), fontsize="medium")
     return fig

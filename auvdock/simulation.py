@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from .autopilot import Autopilot
-from .controllers import Measurement
+from .controllers import Measurement, resolve_solver
 from .mission import Mission
 from .results import STATUS_NAMES, STATUS_OK, RunWriter
 
@@ -210,7 +210,7 @@ def simulate(
                 "dt_s": dt,
                 "flow": flow.describe(),
                 "vehicle": vehicle.name,
-                "solver": mission.controller.solver.name,
+                "solver": resolve_solver(mission.controller.solver.name, ap.name),
             },
         )
 

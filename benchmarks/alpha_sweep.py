@@ -38,7 +38,7 @@ def main() -> None:
         o = simulate(m, timeout_s=args.timeout).outcome
         t = f"{o['time_to_dock_s']:.2f}" if o["docked"] else "timeout"
         print(
-            f"{ctrl:<11} {alpha:8.0e} {str(o['docked']):<6} {t:>8} {o['path_length_m']:7.2f} "
+            f"{ctrl:<11} {alpha:8.1e} {str(o['docked']):<6} {t:>8} {o['path_length_m']:7.2f} "
             f"{o['flow_rmse_m_s']:9.4f} {o['flow_final_error_m_s']:9.4f} "
             f"{o['solve_time_median_s'] * 1e3:9.2f} "
             f"{o['solve_time_p99_s'] * 1e3:7.2f} {o['wall_time_s']:7.1f}",

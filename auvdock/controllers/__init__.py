@@ -31,6 +31,7 @@ __all__ = [
     "BaselineMPC",
     "build_controller",
     "build_mpc",
+    "resolve_solver",
     "CONTROLLER_NAMES",
 ]
 
@@ -44,6 +45,7 @@ def build_mpc(mission: Mission, vehicle: Vehicle, dock: HeaveDock, prediction: s
     (dimensionless); in newtons it is ``R_i / u_max,i^2``.
     """
     c = mission.controller
+    solver = resolve_solver(c.solver.name, c.type if kw.get("objective_extra") is None else "optimized")
     u_max = vehicle.thrust_max
     R_newton = np.asarray(c.weights.R, dtype=float) / u_max**2
     return DockingMPC(
@@ -57,11 +59,26 @@ def build_mpc(mission: Mission, vehicle: Vehicle, dock: HeaveDock, prediction: s
         v_rel_max=c.bounds.relative_velocity_max_m_s,
         w_max=c.bounds.angular_rate_max_rad_s,
         prediction=prediction,  # type: ignore[arg-type]
-        solver=c.solver.name,
+        solver=solver,
         max_iter=c.solver.max_iter,
         tol=c.solver.tol,
         **kw,
     )
+
+
+def resolve_solver(name: str, controller: str) -> str:
+    """The solver ``auto`` stands for: IPOPT for Optimized FSE-MPC, SQP otherwise.
+
+    Cost (10) alone is a sum of squares, so SQP with its Gauss-Newton Hessian solves convex
+    QPs and is the fastest.  Optimized FSE-MPC subtracts ``alpha F``, which is convex in the
+    angular rates (information grows with the square of the rate), so its Hessian is
+    indefinite: qrqp then stalls on non-convex QPs (measured 1-25 s per solve, case 2), and
+    convexifying the Hessian removes exactly the curvature that makes turning pay.  IPOPT's
+    inertia-corrected regularisation handles it (measured all solves converged, case 2).
+    """
+    if name != "auto":
+        return name
+    return "ipopt" if controller == "optimized" else "sqp"
 
 
 class BaselineMPC:

@@ -13,8 +13,15 @@ driven by the ESTIMATED flow.
   what adding it inside the optimisation variable, as the authors' code does, amounts to.
 * **Optimized FSE-MPC**: one MPC whose cost is eq. (10) minus ``alpha * sum_k F_k``, with
   the gramian propagated along the predicted horizon symbolically,
-  ``G_k = F_k^-T G_(k-1) F_k^-1 + H_k^T R^-1 H_k`` (``F_k``, ``H_k`` from the predicted
-  attitude and angular rate), so the optimiser sees how its motion improves observability.
+  ``G_k = F_k^-T G_(k-1) F_k^-1 + H_k^T R^-1 H_k`` (``F_k`` and the accelerometer rows of
+  ``H_k`` from the predicted angular rate), so the optimiser sees how its motion improves
+  observability.  The depth-rate row ``e3^T R`` depends on roll and pitch only, which the
+  restoring moments hold near zero, so it is taken at the measured attitude for the whole
+  horizon: this keeps the term a function of the 3N predicted rates alone (its Hessian has
+  174k instead of 274k operations).  The term is convex in the rates (information grows
+  with their square), so the problem is non-convex: it is solved with IPOPT (solver
+  ``auto``), whose inertia correction copes with the negative curvature; SQP with qrqp
+  stalls on the indefinite QPs (1-25 s per solve, measured).
   In the optimiser ``F_k`` is the smooth lower bound
   :func:`auvdock.estimator.information_lower_bound` ``1/tr(G_k^-1)``, within a factor 3 of
   ``lambda_min(G_k)`` and tight when the smallest eigenvalue is separated (the docstring
@@ -23,9 +30,12 @@ driven by the ESTIMATED flow.
 
 Scaling of alpha: each step adds ``H^T R^-1 H`` to G, about ``|nu_2|^2 / sigma_a^2`` per
 axis (``sigma_a^2 = 2.029e-5 (m/s^2)^2``), so yawing at 0.1 rad/s for the 0.5 s horizon
-raises F by about 5e3; alpha = 1e-3 makes that worth about 5 units of cost (10), the
-size of the tracking cost at a few decimetres of error.  The paper's alpha = 1e-15 belongs
-to its own (unstated) scaling of G.
+raises F by about 5e3; alpha = 1e-3 (the default) makes that worth about 5 units of cost
+(10), the size of the tracking cost at a few decimetres of error.  The paper's
+alpha = 1e-15 belongs to its own (unstated) scaling of G.  ``benchmarks/alpha_sweep.py``
+measures the trade-off on case 2 (README): below 5e-4 the vehicle does not turn enough to
+learn the current and, predicting with a wrong flow, never closes the last centimetres;
+from 1.5e-3 on it estimates twice as well but keeps turning and does not dock in 75 s.
 """
 
 from __future__ import annotations
@@ -57,15 +67,17 @@ def _six(G: np.ndarray) -> np.ndarray:
 
 
 def gramian_step(
-    G: ca.SX, nu2: ca.SX, R_nb: ca.SX, dt: float, R_inv: np.ndarray, gamma: float = 1.0
+    G: ca.SX, nu2: ca.SX, depth_row: ca.SX, dt: float, R_inv: np.ndarray, gamma: float = 1.0
 ) -> ca.SX:
     """One step of the gramian recursion, symbolically: gamma F^-T G F^-1 + H^T R^-1 H.
 
     ``F = expm(-S(nu_2) dt)`` (so ``F^-1 = expm(S(nu_2) dt)``) and the accelerometer rows
     of H are ``(I - F^-1)/dt``, the paper's ``-S(nu_2)`` to first order, as in the filter.
+    ``depth_row`` (1x3) is the depth-rate row ``e3^T R(Theta)``, the third row of the
+    rotation matrix; it depends on roll and pitch only, not on heading.
     """
     Fi = flow_transition(-nu2, dt, ca)
-    H = ca.vertcat((ca.DM.eye(3) - Fi) / dt, R_nb[2, :])
+    H = ca.vertcat((ca.DM.eye(3) - Fi) / dt, ca.reshape(depth_row, 1, 3))
     return gamma * ca.mtimes([Fi.T, G, Fi]) + ca.mtimes([H.T, ca.DM(R_inv), H])
 
 
@@ -90,7 +102,7 @@ class PerceptionLaw:
         nu_dot, _ = m.accelerations(x, tau, f_ned, ca.DM.zeros(3))
         nu2_next = x[9:12] + dt * nu_dot[3:6]
         R_nb = m.rotation(x[0:6])
-        G_next = gramian_step(_sym_from6(g6), nu2_next, R_nb, dt, R_inv, gamma)
+        G_next = gramian_step(_sym_from6(g6), nu2_next, R_nb[2, :], dt, R_inv, gamma)
         # scale by the current F so the objective is O(1)
         scale = ca.SX.sym("scale")
         obj = -information_lower_bound(G_next) / scale
@@ -156,6 +168,8 @@ class FSEMPC:
         c = mission.controller
         dt = c.dt_s
         self.vehicle = vehicle
+        rot = vehicle.model.function("rotation")
+        self._rotation = lambda angles: np.asarray(rot(angles))
         self.estimator = FlowEstimator(
             vehicle,
             dt,
@@ -177,19 +191,19 @@ class FSEMPC:
             self.mpc = build_mpc(mission, vehicle, dock, "full")
         else:
             alpha = float(c.alpha)
-            model = vehicle.model
 
             def info_term(X, U, params, extra):
                 G = _sym_from6(extra[0:6])
                 F0 = extra[6]
+                depth_row = extra[7:10]
                 J = 0
                 for k in range(1, X.shape[1]):
-                    G = gramian_step(G, X[9:12, k], model.rotation(X[0:6, k]), dt, R_inv, gamma)
+                    G = gramian_step(G, X[9:12, k], depth_row, dt, R_inv, gamma)
                     J += information_lower_bound(G) - F0
                 return -alpha * J
 
             self.mpc = build_mpc(
-                mission, vehicle, dock, "full", objective_extra=info_term, extra_params=7, extra_hessian=True
+                mission, vehicle, dock, "full", objective_extra=info_term, extra_params=10, extra_hessian=True
             )
 
     def reset(self) -> None:
@@ -217,7 +231,8 @@ class FSEMPC:
             r.thrust = thrust
         else:
             G = self.estimator.gramian()
-            extra = np.concatenate([_six(G), [float(information_lower_bound(G))]])
+            depth_row = self._rotation(est.state[3:6])[2, :]
+            extra = np.concatenate([_six(G), [float(information_lower_bound(G))], depth_row])
             r = self.mpc.solve(meas.t, est.state, u_prev, est.flow_ned, extra=extra)
         series = {
             "flow_estimate_m_s": est.flow_body,

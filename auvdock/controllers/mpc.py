@@ -388,7 +388,7 @@ class DockingMPC:
             w0 = _shift(self._w_prev, self._ix, self._iu)
             w0[self._ix[0]] = xm
         args = {"x0": w0, "p": p, "lbx": lbx, "ubx": ubx, "lbg": 0.0, "ubg": 0.0}
-        if self._lam_x is not None and self.solver_name != "ipopt":
+        if self._lam_x is not None:
             args["lam_x0"] = self._lam_x
             args["lam_g0"] = self._lam_g
 
