@@ -341,6 +341,7 @@ def compare(
     for c in ctrls:
         if c not in CONTROLLER_NAMES:
             fail_input(f"--controllers: unknown controller {c!r} (known: {', '.join(CONTROLLER_NAMES)})")
+    given_missions = list(missions or [])
     if not missions:
         d = default_missions_dir()
         missions = [d / f"{m}.yaml" for m in PAPER_MISSIONS]
@@ -360,7 +361,16 @@ def compare(
         f"[bold]campaign[/bold]: {n_cases} cases x {len(ctrls)} controllers = {len(specs)} runs, "
         f"{n_jobs} worker processes -> {path}"
     )
-    cmd = "auvdock " + " ".join(shlex.quote(a) for a in sys.argv[1:])
+    # the command as parsed (sys.argv is not the command line when called as a library)
+    words = ["auvdock", "compare", *(str(m) for m in (given_missions or []))]
+    if controllers:
+        words += ["--controllers", ",".join(ctrls)]
+    words += ["--jobs", str(n_jobs), "--out", str(out)]
+    for flag, value in (("--seed", seed), ("--timeout", timeout)):
+        if value is not None:
+            words += [flag, str(value)]
+    words += [w for w, on in (("--resume", resume), ("--pdf", pdf), ("--no-plots", no_plots)) if on]
+    cmd = " ".join(shlex.quote(w) for w in words)
 
     with Progress(
         SpinnerColumn(),
