@@ -520,8 +520,20 @@ def _run_pool(ctx, todo, jobs, q, runner, f, records, ran, table, emit) -> list[
                 if broken:
                     break
         except KeyboardInterrupt:
+            # stop at once: cancel what has not started, stop the workers, keep what they wrote
+            procs = list((getattr(pool, "_processes", None) or {}).values())
+            pool.shutdown(wait=False, cancel_futures=True)
+            for proc in procs:
+                proc.terminate()
+                proc.join(timeout=5)
             for fut in not_done:
-                fut.cancel()
+                s = futures[fut]
+                if s.key in records:
+                    continue
+                if _merge_part(f, s):  # the steps so far, marked complete = False
+                    rec = _empty_record(s)
+                    rec["status"], rec["error"] = "interrupted", "interrupted (Ctrl-C)"
+                    records[s.key] = rec
             raise
     if not broken:
         return []
@@ -603,8 +615,10 @@ def summary_rows(records: list[dict[str, Any]]) -> list[list[str]]:
     """The summary table (:data:`SUMMARY_HEADER` columns) as text, one row per run."""
     rows = []
     for r in records:
-        if r["status"] != "done":
+        if r["status"] == "failed":
             docked, ttd = "failed", f"failed: {r['error']}"
+        elif r["status"] != "done":
+            docked, ttd = r["status"], r["error"] or r["status"]
         elif r["docked"]:
             docked, ttd = "yes", _fmt(r["time_to_dock_s"], ".2f", " s")
         else:

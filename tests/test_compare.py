@@ -143,6 +143,25 @@ def test_failure_in_one_run_does_not_stop_the_others(tmp_path) -> None:
     assert row[3] == "failed: RuntimeError: injected failure"
 
 
+def _interrupting_runner(spec, progress_queue=None):
+    if spec.controller == "naive":
+        raise KeyboardInterrupt
+    return execute_run(spec, progress_queue)
+
+
+def test_ctrl_c_keeps_finished_runs_and_resume_completes(tmp_path) -> None:
+    specs = campaign_specs(MISSIONS[:1], ["oracle", "naive"], tmp_path, timeout_s=1.0)
+    path = tmp_path / "campaign.h5"
+    with pytest.raises(KeyboardInterrupt):
+        run_campaign(specs, path, jobs=1, runner=_interrupting_runner)
+    records, _ = read_campaign(path)  # readable, with the finished run
+    assert [(r["controller"], r["status"]) for r in records] == [("oracle", "done")]
+    res = run_campaign(specs, path, jobs=1, resume=True)
+    assert res.skipped == [("still", "oracle")]
+    assert res.ran == [("still", "naive")]
+    assert [r["status"] for r in res.records] == ["done", "done"]
+
+
 def test_exception_in_run_is_recorded_not_raised(tmp_path) -> None:
     bad = tmp_path / "still.yaml"
     bad.write_text((ROOT / "missions" / "still.yaml").read_text())
