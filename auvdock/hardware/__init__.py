@@ -1,0 +1,1 @@
+"""Hardware: ArduSub's thrust path (:mod:`.ardusub`) for flying a real BlueROV2 over MAVLink."""

@@ -1,0 +1,182 @@
+"""ArduSub's manual thrust path, both ways: thruster forces <-> RC override channels.
+
+In MANUAL mode ArduSub (``ArduSub/mode_manual.cpp``, ``AP_Motors6DOF.cpp``) turns the six
+pilot channels into motor outputs:
+
+1. each override channel (1100..1900 us, 1500 neutral) becomes an input in [-1, 1],
+   ``(pwm - 1500) / 400`` (``norm_input``, no dead zone, no joystick gain), in the channel
+   order of :data:`CHANNELS` (1 pitch, 2 roll, 3 throttle, 4 yaw, 5 forward, 6 lateral);
+2. the VECTORED_6DOF mixer (``output_armed_stabilizing_vectored_6dof``) forms, per motor,
+   ``rpt = roll f_r + pitch f_p + throttle f_t`` (vertical thrusters) and
+   ``yfl = yaw f_y + forward f_f + lateral f_l`` (horizontal thrusters), divides each group by
+   its largest magnitude only when that exceeds 1, and clips ``rpt + yfl`` to [-1, 1];
+3. each motor command m becomes ``PWM = 1500 + 400 m`` (``calc_thrust_to_pwm``).
+
+The motor factors (:data:`MOTOR_FACTORS`) have the signs of ``-B`` column for column
+(parameters.md section 1): a positive motor command pushes along ``-e_i``.  Thruster force
+``u_i`` in this package is along ``+e_i`` and its strong direction (51.4 N at 16 V) is
+positive, so motor ``i`` at command ``m`` pushes ``u_i = T200(1500 - 400 m)``, with ``T200``
+the inverse of :func:`auvdock.vehicle.thrusters.t200_force_to_pwm` (the propeller spins
+the way that makes the T200's forward thrust point along ``e_i``).
+
+:func:`channels_for_wrench` inverts the chain: the six channel values whose mixed,
+PWM-mapped, T200-produced thrusts give a wanted body wrench (Newton iterations on the
+six inputs); :func:`channels_for_thrust` does it for the wrench ``B u`` of the
+controller's eight thrusts (six channels cannot set eight thrusts, only their wrench).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..vehicle.thrusters import PWM_MAX_US, PWM_MIN_US, PWM_NEUTRAL_US, t200_force_to_pwm
+
+__all__ = [
+    "CHANNELS",
+    "MOTOR_FACTORS",
+    "PWM_PER_UNIT",
+    "MODES",
+    "mix",
+    "motor_pwm",
+    "t200_pwm_to_force",
+    "thrust_from_channels",
+    "channels_for_wrench",
+    "channels_for_thrust",
+    "NEUTRAL_CHANNELS",
+]
+
+PWM_PER_UNIT = 400.0
+
+#: RC override channels 1..6 of ArduSub's manual control, in order.
+CHANNELS = ("pitch", "roll", "throttle", "yaw", "forward", "lateral")
+NEUTRAL_CHANNELS = np.full(6, PWM_NEUTRAL_US)
+
+#: ArduSub flight modes by custom_mode number.
+MODES = {"STABILIZE": 0, "ACRO": 1, "ALT_HOLD": 2, "GUIDED": 4, "POSHOLD": 16, "MANUAL": 19}
+
+# AP_Motors6DOF::setup_motors, SUB_FRAME_VECTORED_6DOF:
+#   add_motor_raw_6dof(motor, roll, pitch, yaw, throttle, forward, lateral, order)
+_RAW = np.array(
+    [
+        [0, 0, 1, 0, -1, 1],
+        [0, 0, -1, 0, -1, -1],
+        [0, 0, -1, 0, 1, 1],
+        [0, 0, 1, 0, 1, -1],
+        [1, -1, 0, -1, 0, 0],
+        [-1, -1, 0, -1, 0, 0],
+        [1, 1, 0, -1, 0, 0],
+        [-1, 1, 0, -1, 0, 0],
+    ],
+    dtype=float,
+)
+#: Motor factors (8 x 6), columns in :data:`CHANNELS` order (pitch, roll, throttle, yaw, forward, lateral).
+MOTOR_FACTORS = _RAW[:, [1, 0, 3, 2, 4, 5]]
+_VERTICAL = (0, 1, 2)  # pitch, roll, throttle: the "rpt" group
+_HORIZONTAL = (3, 4, 5)  # yaw, forward, lateral: the "yfl" group
+
+
+def mix(inputs: np.ndarray) -> np.ndarray:
+    """ArduSub's VECTORED_6DOF mixer: six inputs in [-1, 1] (CHANNELS order) -> 8 motor commands."""
+    c = np.clip(np.asarray(inputs, dtype=float), -1.0, 1.0)
+    rpt = MOTOR_FACTORS[:, _VERTICAL] @ c[list(_VERTICAL)]
+    yfl = MOTOR_FACTORS[:, _HORIZONTAL] @ c[list(_HORIZONTAL)]
+    rpt_max = max(1.0, float(np.max(np.abs(rpt))))
+    yfl_max = max(1.0, float(np.max(np.abs(yfl))))
+    return np.clip(rpt / rpt_max + yfl / yfl_max, -1.0, 1.0)
+
+
+def motor_pwm(commands: np.ndarray) -> np.ndarray:
+    """Motor PWM (us) of motor commands in [-1, 1]: ``1500 + 400 m`` clipped to 1100..1900."""
+    m = np.asarray(commands, dtype=float)
+    return np.clip(PWM_NEUTRAL_US + PWM_PER_UNIT * m, PWM_MIN_US, PWM_MAX_US)
+
+
+_F_GRID = np.linspace(-60.0, 60.0, 24001)
+_PWM_GRID = t200_force_to_pwm(_F_GRID)
+
+
+def t200_pwm_to_force(pwm_us: np.ndarray | float) -> np.ndarray:
+    """Force (N) of a T200 at 16 V for a PWM pulse width: the inverse of ``t200_force_to_pwm``.
+
+    Zero inside the dead band (about 1467.6..1534.1 us), saturating at -39.9 / +51.4 N.
+    Interpolated on a 5 mN grid of the fitted curve (parameters.md section 1).
+    """
+    p = np.asarray(pwm_us, dtype=float)
+    fwd = np.interp(p, _PWM_GRID[_F_GRID > 0], _F_GRID[_F_GRID > 0], left=0.0)
+    rev_p, rev_f = _PWM_GRID[_F_GRID < 0], _F_GRID[_F_GRID < 0]
+    rev = np.interp(p, rev_p, rev_f, right=0.0)
+    return np.where(p > PWM_NEUTRAL_US, fwd, np.where(p < PWM_NEUTRAL_US, rev, 0.0))
+
+
+def thrust_from_channels(channels_us: np.ndarray) -> np.ndarray:
+    """Thruster forces u (8, N, along +e_i) that ArduSub produces from six override channels (us)."""
+    c = (np.asarray(channels_us, dtype=float) - PWM_NEUTRAL_US) / PWM_PER_UNIT
+    pwm = motor_pwm(mix(c))
+    return t200_pwm_to_force(2 * PWM_NEUTRAL_US - pwm)
+
+
+def _inputs_to_channels(c: np.ndarray) -> np.ndarray:
+    return np.clip(np.rint(PWM_NEUTRAL_US + PWM_PER_UNIT * c), PWM_MIN_US, PWM_MAX_US)
+
+
+def _t200_slope(pwm_us: np.ndarray) -> np.ndarray:
+    """dF/dPWM (N/us) of the T200 curve; inside the dead band the slope at its edge (bridges it)."""
+    f = t200_pwm_to_force(pwm_us)
+    fwd = 11.9405 + 2 * -0.17247 * f + 3 * 0.00150 * f**2
+    rev = 15.4759 + 2 * 0.29830 * f + 3 * 0.00347 * f**2
+    dpwm_df = np.where(f > 0, fwd, np.where(f < 0, rev, np.where(pwm_us >= PWM_NEUTRAL_US, 11.9405, 15.4759)))
+    return 1.0 / dpwm_df
+
+
+def channels_for_wrench(
+    wrench: np.ndarray, B: np.ndarray, *, iterations: int = 40, tol_N: float = 1e-3
+) -> np.ndarray:
+    """The six override channels (us, integers, CHANNELS order) that make ArduSub push ``wrench``.
+
+    Parameters
+    ----------
+    wrench : ndarray (6,)
+        Wanted body wrench [X Y Z (N), K M N (N m)] in {b}.
+    B : ndarray (6, 8)
+        Thruster allocation matrix.
+
+    Solves ``B u(c) = wrench`` for the six inputs c by damped Newton iterations, ``u(c)``
+    being the mixer + PWM + T200 chain of :func:`thrust_from_channels` before the rounding
+    to whole microseconds.  The Jacobian ``B diag(-400 dT/dPWM) F`` uses the T200 slope at
+    the edge of the dead band inside it, so the iteration crosses the band instead of
+    stalling in it.  A wrench the chain cannot produce (beyond the thrusters, or needing
+    thrust inside a dead band) is met in the least-squares sense as far as the iteration gets;
+    zero wrench gives neutral channels exactly.
+    """
+    w = np.asarray(wrench, dtype=float)
+    if not np.any(w):
+        return NEUTRAL_CHANNELS.copy()
+
+    def thrusts(c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        pwm = 2 * PWM_NEUTRAL_US - motor_pwm(mix(c))
+        return t200_pwm_to_force(pwm), pwm
+
+    c = np.zeros(6)
+    u, pwm = thrusts(c)
+    r = B @ u - w
+    for _ in range(iterations):
+        if np.max(np.abs(r)) < tol_N:
+            break
+        J = B @ ((-PWM_PER_UNIT * _t200_slope(pwm))[:, None] * MOTOR_FACTORS)
+        step = np.linalg.lstsq(J, -r, rcond=None)[0]
+        for _ in range(12):  # halve the step until the residual decreases
+            c_new = np.clip(c + step, -1.0, 1.0)
+            u_new, pwm_new = thrusts(c_new)
+            r_new = B @ u_new - w
+            if np.linalg.norm(r_new) < np.linalg.norm(r):
+                break
+            step = step / 2
+        else:
+            break
+        c, pwm, r = c_new, pwm_new, r_new
+    return _inputs_to_channels(c)
+
+
+def channels_for_thrust(thrust_N: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """Override channels (us) for the wrench ``B u`` of eight thrusts (see channels_for_wrench)."""
+    return channels_for_wrench(B @ np.asarray(thrust_N, dtype=float), B)
