@@ -204,6 +204,13 @@ class DockSpec(_Strict):
     position_ned_m: Vec3 = Field(default=[2.0, 3.0, 5.0], description="mean position (north, east, down), m")
     heading_deg: float = Field(default=0.0, description="target heading of the docked vehicle, degrees")
     heave: HeaveSpec = Field(default_factory=HeaveSpec)
+    source: Literal["model"] = Field(
+        default="model",
+        description=(
+            "fly: where the dock's position comes from: model (this motion, placed relative to the "
+            "vehicle's pose at the start as the start state is)"
+        ),
+    )
 
     def build(self) -> HeaveDock:
         """The dock this spec describes."""
@@ -326,6 +333,27 @@ class SimulationSpec(_Strict):
     substeps: Annotated[int, Field(ge=1)] = Field(default=4, description="RK4 substeps per control period")
 
 
+class GeofenceSpec(_Strict):
+    """fly: abort when the vehicle leaves this region (mission frame)."""
+
+    max_distance_m: PosFloat = Field(default=6.0, description="largest horizontal distance from the start, m")
+    min_depth_m: float = Field(default=0.1, description="shallowest allowed depth, m")
+    max_depth_m: PosFloat = Field(default=10.0, description="deepest allowed depth, m")
+
+
+class FlySpec(_Strict):
+    """Flying a real vehicle (auvdock fly): telemetry and safety limits."""
+
+    telemetry_rate_hz: PosFloat = Field(default=25.0, description="requested telemetry rate, Hz")
+    stale_neutral_s: PosFloat = Field(
+        default=0.3, description="no ATTITUDE or position for this long: neutral thrust, s"
+    )
+    stale_abort_s: PosFloat = Field(
+        default=2.0, description="no ATTITUDE or position for this long: abort, s"
+    )
+    geofence: GeofenceSpec = Field(default_factory=GeofenceSpec)
+
+
 class OutputSpec(_Strict):
     """Where results go."""
 
@@ -346,6 +374,7 @@ class Mission(_Strict):
     sensors: SensorsSpec = Field(default_factory=SensorsSpec)
     docking: DockingSpec = Field(default_factory=DockingSpec)
     simulation: SimulationSpec = Field(default_factory=SimulationSpec)
+    fly: FlySpec = Field(default_factory=FlySpec)
     seed: Annotated[int, Field(ge=0)] = Field(default=0, description="random seed (sensor noise)")
     output: OutputSpec = Field(default_factory=OutputSpec)
 

@@ -171,3 +171,25 @@ def test_cli_plot_not_a_results_file(tmp_path: Path) -> None:
     res = runner.invoke(app, ["plot", str(p)])
     assert res.exit_code == 2
     assert str(p) in res.stderr
+
+
+def test_ctrl_c_during_a_solve_is_an_interrupt_not_solver_trouble() -> None:
+    """CasADi turns Ctrl-C inside a solve into a failed solve; the MPC must raise it instead."""
+    import signal
+
+    from auvdock.controllers import build_controller
+
+    m = mission("diagonal", **{"controller.solver.name": "ipopt"})
+    c = build_controller(m, m.build_vehicle(), m.build_dock(), "oracle")
+    x = m.start_state()
+    old = signal.signal(signal.SIGALRM, lambda *a: signal.raise_signal(signal.SIGINT))
+    statuses = []
+    try:
+        signal.setitimer(signal.ITIMER_REAL, 0.3)
+        with pytest.raises(KeyboardInterrupt):
+            for _ in range(2000):
+                statuses.append(c.mpc.solve(0.0, x, np.zeros(8), np.array([0.5, 0.5, 0.0])).status)
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, old)
+    assert statuses and all(s == STATUS_OK for s in statuses)

@@ -50,6 +50,7 @@ from ..estimator import FlowEstimator, flow_transition, information_lower_bound
 from ..mission import Mission
 from ..vehicle import Vehicle
 from .base import ControlOutput, Measurement
+from .mpc import SigintDeferred
 
 __all__ = ["FSEMPC", "PerceptionLaw", "gramian_step"]
 
@@ -131,12 +132,13 @@ class PerceptionLaw:
         if not np.any(start):
             start[5] = self.wrench_max[5]
         F0 = max(float(information_lower_bound(G)), 1e-12)
-        sol = self._solver(
-            x0=start,
-            lbx=-self.wrench_max,
-            ubx=self.wrench_max,
-            p=np.concatenate([x, flow_ned, _six(G), [F0]]),
-        )
+        with SigintDeferred():
+            sol = self._solver(
+                x0=start,
+                lbx=-self.wrench_max,
+                ubx=self.wrench_max,
+                p=np.concatenate([x, flow_ned, _six(G), [F0]]),
+            )
         ok = bool(self._solver.stats().get("success", False))
         tau = np.clip(np.asarray(sol["x"]).ravel(), -self.wrench_max, self.wrench_max)
         if not np.all(np.isfinite(tau)):

@@ -31,6 +31,8 @@ last good plan (or zero thrust if there is none) with a status code saying so.
 from __future__ import annotations
 
 import math
+import signal
+import threading
 import time
 from dataclasses import dataclass, field
 from typing import Literal
@@ -394,7 +396,8 @@ class DockingMPC:
 
         t0 = time.perf_counter()
         try:
-            sol = self._solver(**args)
+            with SigintDeferred():
+                sol = self._solver(**args)
             stats = self._solver.stats()
             ok = bool(stats.get("success", False))
             ret = str(stats.get("return_status", ""))
@@ -441,6 +444,36 @@ class DockingMPC:
         for k in range(X.shape[0]):
             X[k, 6:9] += self._R(X[k, 3:6]).T @ flow_ned
         return X
+
+
+class SigintDeferred:
+    """Hold Ctrl-C (SIGINT) back while a CasADi solver runs, then raise KeyboardInterrupt.
+
+    CasADi's interrupt check turns a KeyboardInterrupt raised inside a solve into a failed
+    solve (IPOPT returns ``NonIpopt_Exception_Thrown``), which a run loop would take for
+    solver trouble and go on.  Inside this block SIGINT only sets a flag; on leaving it the
+    interrupt is raised.  Outside the main thread (where handlers cannot be set) it does
+    nothing.
+    """
+
+    def __enter__(self) -> SigintDeferred:
+        self.hit = False
+        self._old = None
+        if threading.current_thread() is threading.main_thread():
+            try:
+                self._old = signal.signal(signal.SIGINT, self._handler)
+            except ValueError:
+                self._old = None
+        return self
+
+    def _handler(self, signum, frame) -> None:
+        self.hit = True
+
+    def __exit__(self, *exc: object) -> None:
+        if self._old is not None:
+            signal.signal(signal.SIGINT, self._old)
+        if self.hit:
+            raise KeyboardInterrupt
 
 
 def _shift(w: np.ndarray, ix: np.ndarray, iu: np.ndarray) -> np.ndarray:

@@ -1,0 +1,323 @@
+"""The topside end of the MAVLink link to an ArduSub vehicle (pymavlink).
+
+:class:`MavlinkLink` connects, waits for the vehicle's HEARTBEAT, sends our own HEARTBEAT
+at 1 Hz as a ground station, reads every message in a background thread (keeping the
+latest of each type with its arrival time), changes modes, arms and disarms with the
+result checked, requests telemetry rates, streams RC_CHANNELS_OVERRIDE, and records the
+whole session both ways in a MAVLink ``.tlog`` that MAVProxy and QGroundControl replay
+(8-byte big-endian microseconds since the epoch, then the raw message).
+
+Facts from ArduSub's source this follows:
+
+* RC_CHANNELS_OVERRIDE and MANUAL_CONTROL count only from the GCS system id (parameter
+  SYSID_MYGCS, default 255), so we send as 255 unless told otherwise;
+* in an override, ``UINT16_MAX`` means "ignore this channel" and 0 "release it to the RC
+  radio"; an override lapses 3 s after the last message;
+* flight modes are custom_mode numbers (:data:`auvdock.hardware.ardusub.MODES`);
+* arming is MAV_CMD_COMPONENT_ARM_DISARM, answered with COMMAND_ACK, and shows as the
+  MAV_MODE_FLAG_SAFETY_ARMED bit of HEARTBEAT.base_mode;
+* telemetry rates are set with MAV_CMD_SET_MESSAGE_INTERVAL (param3 = 0).
+"""
+
+from __future__ import annotations
+
+import inspect
+import re
+import struct
+import threading
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from pymavlink import mavutil
+from pymavlink.dialects.v20 import ardupilotmega as mavlink2
+
+from .ardusub import MODES, NEUTRAL_CHANNELS
+
+__all__ = ["LinkError", "MavlinkLink", "connection_string"]
+
+mavlink = mavutil.mavlink
+UINT16_MAX = 65535
+GCS_COMPONENT = mavlink.MAV_COMP_ID_MISSIONPLANNER  # 190
+
+
+class LinkError(RuntimeError):
+    """The vehicle did not answer as expected (no heartbeat, command refused, ...)."""
+
+
+_SHORT_UDP = re.compile(r"^udp:(\d{1,5})$")
+
+
+def connection_string(port: str) -> str:
+    """The pymavlink connection string for ``--port``.
+
+    ``udp:PORT`` (the short form, which pymavlink rejects) means listen on
+    ``0.0.0.0:PORT``, where BlueOS sends the vehicle's MAVLink; every other pymavlink form
+    (``udpin:``, ``udpout:``, ``tcp:``, a serial device with ``,baud``) passes unchanged.
+
+    Raises
+    ------
+    ValueError
+        For an empty string or a port number outside 1..65535.
+    """
+    p = port.strip()
+    if not p:
+        raise ValueError("empty port")
+    m = _SHORT_UDP.match(p)
+    if m:
+        n = int(m.group(1))
+        if not 1 <= n <= 65535:
+            raise ValueError(f"port number {n} outside 1..65535")
+        return f"udpin:0.0.0.0:{n}"
+    return p
+
+
+class MavlinkLink:
+    """GCS-side MAVLink link to one ArduSub vehicle.
+
+    Parameters
+    ----------
+    port : str
+        Connection string (see :func:`connection_string`).
+    sysid : int
+        Our system id (255: ArduSub's SYSID_MYGCS default; overrides from others are ignored).
+    tlog : str or Path, optional
+        Record every message, both ways, to this ``.tlog`` file.
+    on_event : callable, optional
+        ``on_event(text)`` for link events (connected, armed, mode changed, ...).
+    """
+
+    def __init__(
+        self,
+        port: str,
+        *,
+        sysid: int = 255,
+        tlog: str | Path | None = None,
+        on_event: Callable[[str], None] | None = None,
+    ) -> None:
+        self.port = port
+        self.url = connection_string(port)
+        self.sysid = int(sysid)
+        self._on_event = on_event
+        self._lock = threading.Lock()
+        self._tlog_lock = threading.Lock()
+        self._latest: dict[str, tuple[Any, float]] = {}
+        self._acks: list[tuple[int, int, float]] = []
+        self._stop = threading.Event()
+        self._threads: list[threading.Thread] = []
+        self._tlog = open(tlog, "wb") if tlog is not None else None  # noqa: SIM115 -- closed in close()
+        self.target_system = 1
+        self.target_component = 1
+        self.conn = mavutil.mavlink_connection(
+            self.url, source_system=self.sysid, source_component=GCS_COMPONENT, dialect="ardupilotmega"
+        )
+        # speak MAVLink 2, as ArduSub does, on this connection only (pymavlink's automatic
+        # upgrade would switch the whole process and replace conn.mav, losing our callback)
+        self.conn.mav = mavlink2.MAVLink(self.conn, srcSystem=self.sysid, srcComponent=GCS_COMPONENT)
+        self.conn.mav.robust_parsing = True
+        self.conn.WIRE_PROTOCOL_VERSION = "2.0"
+        self.conn.first_byte = False
+        self.conn.mav.set_send_callback(self._on_send)
+        params = inspect.signature(self.conn.mav.rc_channels_override_send).parameters
+        self._override_v2 = "chan18_raw" in params
+
+    # -- recording ------------------------------------------------------------------------
+    def _record(self, buf: bytes) -> None:
+        if self._tlog is None:
+            return
+        with self._tlog_lock:
+            if not self._tlog.closed:
+                self._tlog.write(struct.pack(">Q", int(time.time() * 1e6)) + bytes(buf))
+
+    def _on_send(self, msg: Any) -> None:
+        try:
+            self._record(msg.get_msgbuf())
+        except Exception:  # noqa: BLE001 -- recording never breaks the link
+            pass
+
+    def _event(self, text: str) -> None:
+        if self._on_event is not None:
+            self._on_event(text)
+
+    # -- connection -----------------------------------------------------------------------
+    def connect(self, timeout_s: float = 10.0) -> Any:
+        """Wait for the vehicle's HEARTBEAT (an ArduPilot submarine), then start the threads.
+
+        Raises
+        ------
+        LinkError
+            If no ArduSub heartbeat arrives within ``timeout_s`` (the message names the port).
+        """
+        deadline = time.monotonic() + timeout_s
+        hb = None
+        next_gcs_hb = 0.0
+        while time.monotonic() < deadline:
+            if time.monotonic() >= next_gcs_hb:  # udpout/tcp peers need traffic to learn about us
+                self._send_heartbeat()
+                next_gcs_hb = time.monotonic() + 1.0
+            msg = self.conn.recv_match(type="HEARTBEAT", blocking=True, timeout=0.2)
+            if msg is None:
+                continue
+            self._record(msg.get_msgbuf())
+            if (
+                msg.type == mavlink.MAV_TYPE_SUBMARINE
+                and msg.autopilot == mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA
+            ):
+                hb = msg
+                break
+        if hb is None:
+            raise LinkError(f"no ArduSub heartbeat on {self.port} within {timeout_s:g} s")
+        self.target_system = hb.get_srcSystem()
+        self.target_component = hb.get_srcComponent()
+        with self._lock:
+            self._latest["HEARTBEAT"] = (hb, time.monotonic())
+        self._event(f"connected to system {self.target_system} on {self.port}")
+        for fn in (self._reader, self._heartbeater):
+            t = threading.Thread(target=fn, name=f"mavlink-{fn.__name__.strip('_')}", daemon=True)
+            t.start()
+            self._threads.append(t)
+        return hb
+
+    def close(self) -> None:
+        """Stop the threads and close the connection and the tlog."""
+        self._stop.set()
+        for t in self._threads:
+            t.join(timeout=2.0)
+        try:
+            self.conn.close()
+        except Exception:  # noqa: BLE001
+            pass
+        with self._tlog_lock:
+            if self._tlog is not None and not self._tlog.closed:
+                self._tlog.close()
+
+    def __enter__(self) -> MavlinkLink:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # -- threads --------------------------------------------------------------------------
+    def _reader(self) -> None:
+        while not self._stop.is_set():
+            try:
+                msg = self.conn.recv_match(blocking=True, timeout=0.05)
+            except Exception:  # noqa: BLE001 -- a garbled packet or a closed socket
+                if self._stop.is_set():
+                    return
+                continue
+            if msg is None:
+                continue
+            mtype = msg.get_type()
+            if mtype == "BAD_DATA":
+                continue
+            self._record(msg.get_msgbuf())
+            if msg.get_srcSystem() != self.target_system:
+                continue
+            now = time.monotonic()
+            with self._lock:
+                self._latest[mtype] = (msg, now)
+                if mtype == "COMMAND_ACK":
+                    self._acks.append((int(msg.command), int(msg.result), now))
+
+    def _send_heartbeat(self) -> None:
+        self.conn.mav.heartbeat_send(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+
+    def _heartbeater(self) -> None:
+        while not self._stop.wait(1.0):
+            try:
+                self._send_heartbeat()
+            except Exception:  # noqa: BLE001
+                pass
+
+    # -- state ----------------------------------------------------------------------------
+    def latest(self, mtype: str) -> tuple[Any, float]:
+        """The latest message of a type and its age (s); ``(None, inf)`` if none yet."""
+        with self._lock:
+            item = self._latest.get(mtype)
+        if item is None:
+            return None, float("inf")
+        return item[0], time.monotonic() - item[1]
+
+    @property
+    def armed(self) -> bool:
+        hb, _ = self.latest("HEARTBEAT")
+        return hb is not None and bool(hb.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
+
+    @property
+    def mode(self) -> int | None:
+        hb, _ = self.latest("HEARTBEAT")
+        return None if hb is None else int(hb.custom_mode)
+
+    # -- commands -------------------------------------------------------------------------
+    def _command(self, command: int, *params: float, timeout_s: float = 3.0) -> int:
+        """Send COMMAND_LONG and wait for its COMMAND_ACK; returns the MAV_RESULT."""
+        p = list(params) + [0.0] * (7 - len(params))
+        t_sent = time.monotonic()
+        self.conn.mav.command_long_send(self.target_system, self.target_component, command, 0, *p)
+        deadline = t_sent + timeout_s
+        while time.monotonic() < deadline:
+            with self._lock:
+                for cmd, result, t in self._acks:
+                    if cmd == command and t >= t_sent:
+                        return result
+            time.sleep(0.01)
+        raise LinkError(f"no COMMAND_ACK for command {command} from {self.port} within {timeout_s:g} s")
+
+    def _wait(self, predicate: Callable[[], bool], timeout_s: float) -> bool:
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            if predicate():
+                return True
+            time.sleep(0.02)
+        return predicate()
+
+    def set_mode(self, name: str, timeout_s: float = 3.0) -> None:
+        """Change the flight mode (e.g. ``"MANUAL"``) and wait until the HEARTBEAT shows it."""
+        number = MODES[name]
+        self.conn.mav.set_mode_send(self.target_system, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, number)
+        if not self._wait(lambda: self.mode == number, timeout_s):
+            raise LinkError(f"vehicle did not change to {name} (mode {number}) within {timeout_s:g} s")
+        self._event(f"mode {name}")
+
+    def arm(self, timeout_s: float = 3.0) -> None:
+        """Arm; checks the COMMAND_ACK and the armed bit of HEARTBEAT."""
+        result = self._command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1, timeout_s=timeout_s)
+        if result != mavlink.MAV_RESULT_ACCEPTED:
+            raise LinkError(f"arming refused by the vehicle (MAV_RESULT {result})")
+        if not self._wait(lambda: self.armed, timeout_s):
+            raise LinkError("arming acknowledged but the HEARTBEAT does not show armed")
+        self._event("armed")
+
+    def disarm(self, timeout_s: float = 3.0) -> bool:
+        """Disarm; True if the vehicle reports disarmed.  Never raises (it is on the way out)."""
+        try:
+            self._command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0, timeout_s=timeout_s)
+        except LinkError:
+            pass
+        ok = self._wait(lambda: not self.armed, timeout_s)
+        self._event("disarmed" if ok else "disarm not confirmed")
+        return ok
+
+    def request_rate(self, message_id: int, rate_hz: float) -> int:
+        """MAV_CMD_SET_MESSAGE_INTERVAL for one message; returns the MAV_RESULT."""
+        interval_us = -1 if rate_hz <= 0 else 1e6 / rate_hz
+        return self._command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, message_id, interval_us, 0)
+
+    def _override(self, ch8: list[int]) -> None:
+        # MAVLink 2 has channels 9..18 (0 or UINT16_MAX = ignore there); MAVLink 1 stops at 8
+        extra = [0] * 10 if self._override_v2 else []
+        self.conn.mav.rc_channels_override_send(self.target_system, self.target_component, *ch8, *extra)
+
+    def send_override(self, channels_us: Any) -> None:
+        """RC_CHANNELS_OVERRIDE for channels 1..6 (us); channels 7 and 8 ignored (UINT16_MAX)."""
+        self._override([int(round(c)) for c in channels_us] + [UINT16_MAX, UINT16_MAX])
+
+    def send_neutral(self) -> None:
+        """Neutral overrides (1500 us on channels 1..6): zero thrust in MANUAL."""
+        self.send_override(NEUTRAL_CHANNELS)
+
+    def release_overrides(self) -> None:
+        """Give channels 1..8 back to the RC radio (value 0)."""
+        self._override([0] * 8)
