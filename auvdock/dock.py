@@ -90,3 +90,57 @@ class HeaveDock:
         out[..., 5] = self.heading_rad
         out[..., 6:9] = v
         return out
+
+
+class TrackedDock:
+    """A heave dock whose mean position is re-anchored by measurements (``auvdock fly``).
+
+    Between measurements the dock moves as its heave model says (Assumption 2); each
+    measured position ``p_meas`` at time ``t`` moves the model's mean position by
+    ``gain * (p_meas - position(t))``.  Same interface as :class:`HeaveDock` for the
+    controllers (``position``, ``velocity``, ``trajectory``, ``reference_state``,
+    ``heading_rad``).
+
+    Parameters
+    ----------
+    model : HeaveDock
+        The mission's dock motion (its mean position is the first guess).
+    gain : float
+        Weight of a new measurement, in (0, 1] (1: jump to it).
+    """
+
+    def __init__(self, model: HeaveDock, gain: float = 0.3) -> None:
+        if not 0.0 < gain <= 1.0:
+            raise ValueError(f"gain must be in (0, 1], got {gain}")
+        self.model = model
+        self.gain = float(gain)
+        self.offset = np.zeros(3)
+        self.measurements = 0
+
+    @property
+    def heading_rad(self) -> float:
+        return self.model.heading_rad
+
+    def position(self, t: float | np.ndarray) -> np.ndarray:
+        """Dock position (NED, m) at time(s) t (s), shape (..., 3)."""
+        return self.model.position(t) + self.offset
+
+    def velocity(self, t: float | np.ndarray) -> np.ndarray:
+        """Dock velocity (NED, m/s) at time(s) t (s), shape (..., 3)."""
+        return self.model.velocity(t)
+
+    def trajectory(self, t0: float, dt: float, n_steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """As :meth:`HeaveDock.trajectory`, shifted by the measured offset."""
+        t, p, v = self.model.trajectory(t0, dt, n_steps)
+        return t, p + self.offset, v
+
+    def reference_state(self, t: float | np.ndarray) -> np.ndarray:
+        out = self.model.reference_state(t)
+        out[..., 0:3] += self.offset
+        return out
+
+    def update(self, t: float, measured_position_ned: np.ndarray) -> None:
+        """Blend in one measured dock position (NED, m) taken at time t (s)."""
+        err = np.asarray(measured_position_ned, dtype=float) - self.position(t)
+        self.offset = self.offset + (1.0 if self.measurements == 0 else self.gain) * err
+        self.measurements += 1

@@ -46,6 +46,7 @@ import numpy as np
 
 from .autopilot import Autopilot
 from .controllers import Measurement
+from .dock import HeaveDock, TrackedDock
 from .hardware.ardusub import NEUTRAL_CHANNELS, channels_for_thrust
 from .hardware.link import LinkError, MavlinkLink
 from .mission import Mission
@@ -125,13 +126,16 @@ class FlySession:
         self.timeout_s = mission.docking.timeout_s if timeout_s is None else float(timeout_s)
         self.connect_timeout_s = connect_timeout_s
         self.vehicle = mission.build_vehicle()
-        self.dock = mission.build_dock()
+        self.dock: HeaveDock | TrackedDock = mission.build_dock()
+        if mission.dock.source == "mavlink":
+            self.dock = TrackedDock(self.dock)
         self.flow = mission.build_flow()
         self.autopilot = Autopilot(mission, self.vehicle, self.dock, controller)
         self.dt = mission.controller.dt_s
         self.events: list[tuple[float, str]] = []
         self._t0 = time.monotonic()
         self._we_armed = False
+        self._last_target: int | None = None
         rot = self.vehicle.model.function("rotation")
         self._R = lambda angles: np.asarray(rot(angles))
         self.link._on_event = self._event
@@ -202,6 +206,31 @@ class FlySession:
             a_b = f_b + R.T @ np.array([0.0, 0.0, G])  # acceleration over ground in {b}
             sensors["accel_m_s2"] = a_b - np.cross(x[9:12], x[6:9])  # d(nu_1)/dt
         return sensors, f_b
+
+    def _landing_target(self, t: float, x: np.ndarray) -> float:
+        """Re-anchor the dock from the latest LANDING_TARGET; returns its age (s).
+
+        Accepted frames: MAV_FRAME_BODY_FRD (x, y, z from the vehicle in {b}) and
+        MAV_FRAME_LOCAL_NED (the autopilot's NED frame, mapped to the mission frame).
+        Messages without ``position_valid`` are ignored.
+        """
+        from pymavlink import mavutil
+
+        lt, age = self.link.latest("LANDING_TARGET")
+        if lt is None or not getattr(lt, "position_valid", 0):
+            return float("inf")
+        if id(lt) == self._last_target:
+            return age
+        self._last_target = id(lt)
+        rel = np.array([lt.x, lt.y, lt.z])
+        if lt.frame == mavutil.mavlink.MAV_FRAME_BODY_FRD:
+            p = x[0:3] + self._R(x[3:6]) @ rel
+        elif lt.frame == mavutil.mavlink.MAV_FRAME_LOCAL_NED:
+            p = self._p_mission0 + self._Rf @ (rel - self._p_vehicle0)
+        else:
+            return float("inf")
+        self.dock.update(t, p)
+        return age
 
     def _geofence(self, x: np.ndarray) -> str | None:
         g = self.mission.fly.geofence
@@ -305,6 +334,14 @@ class FlySession:
                 fence = self._geofence(x)
                 if fence is not None:
                     raise FlyAbortError(fence)
+                if isinstance(self.dock, TrackedDock):
+                    age_t = self._landing_target(t, x)
+                    if self.dock.measurements == 0 and t > m.fly.stale_abort_s:
+                        raise FlyAbortError(
+                            f"no LANDING_TARGET with a position within {m.fly.stale_abort_s:g} s"
+                        )
+                    if self.dock.measurements and age_t > m.fly.stale_abort_s:
+                        raise FlyAbortError(f"dock lost: no LANDING_TARGET for {age_t:.1f} s")
                 p_dock = self.dock.position(t)
                 dist = float(np.linalg.norm(x[0:3] - p_dock))
                 if dist <= tol:

@@ -204,11 +204,12 @@ class DockSpec(_Strict):
     position_ned_m: Vec3 = Field(default=[2.0, 3.0, 5.0], description="mean position (north, east, down), m")
     heading_deg: float = Field(default=0.0, description="target heading of the docked vehicle, degrees")
     heave: HeaveSpec = Field(default_factory=HeaveSpec)
-    source: Literal["model"] = Field(
+    source: Literal["model", "mavlink"] = Field(
         default="model",
         description=(
             "fly: where the dock's position comes from: model (this motion, placed relative to the "
-            "vehicle's pose at the start as the start state is)"
+            "vehicle's pose at the start as the start state is) or mavlink (LANDING_TARGET messages "
+            "from a positioning or vision system re-anchor this motion)"
         ),
     )
 

@@ -201,3 +201,42 @@ def test_no_vehicle_clear_error(tmp_path) -> None:
     res = runner.invoke(app, fly_args(port, tmp_path, "--connect-timeout", "1"))
     assert res.exit_code == 3
     assert res.stderr.strip() == f"aborted: no ArduSub heartbeat on udpin:127.0.0.1:{port} within 1 s"
+
+
+def test_dock_from_landing_target(tmp_path) -> None:
+    """dock.source: mavlink -- the real dock is 0.3 m east of the model's; LANDING_TARGET leads there."""
+    from auvdock.dock import HeaveDock
+
+    data = yaml.safe_load(TANK.read_text())
+    data["dock"]["source"] = "mavlink"
+    mission = tmp_path / "target.yaml"
+    mission.write_text(yaml.safe_dump(data))
+    m = load_mission(mission)
+    model = m.build_dock()
+    real = HeaveDock(
+        (model.position_ned_m[0], model.position_ned_m[1] + 0.3, model.position_ned_m[2]),
+        model.heading_rad,
+        model.amplitude_m,
+        model.angular_frequency_rad_s,
+        model.phase_rad,
+    )
+    port = free_port()
+    with VehicleSim(m, port=f"udpout:127.0.0.1:{port}") as sim:
+        sim.set_landing_target(real, rate_hz=10.0)
+        res = runner.invoke(app, fly_args(port, tmp_path, "--arm", "--timeout", "40", mission=mission))
+        assert res.exit_code == 0, res.output + res.stderr
+        # the vehicle is at the real dock (its own truth state, not what fly believed)
+        assert np.linalg.norm(sim.state[0:3] - real.position(sim.t)) < 0.15
+        assert np.linalg.norm(sim.state[0:3] - model.position(sim.t)) > 0.15
+
+
+def test_no_landing_target_aborts(tmp_path) -> None:
+    data = yaml.safe_load(TANK.read_text())
+    data["dock"]["source"] = "mavlink"
+    mission = tmp_path / "target.yaml"
+    mission.write_text(yaml.safe_dump(data))
+    port = free_port()
+    with VehicleSim(load_mission(mission), port=f"udpout:127.0.0.1:{port}"):
+        res = runner.invoke(app, fly_args(port, tmp_path, "--arm", "--timeout", "30", mission=mission))
+    assert res.exit_code == 3
+    assert res.stderr.strip() == "aborted: no LANDING_TARGET with a position within 2 s"

@@ -213,7 +213,8 @@ class MavlinkLink:
             if mtype == "BAD_DATA":
                 continue
             self._record(msg.get_msgbuf())
-            if msg.get_srcSystem() != self.target_system:
+            # the vehicle's messages; LANDING_TARGET may come from any external system
+            if msg.get_srcSystem() != self.target_system and mtype != "LANDING_TARGET":
                 continue
             now = time.monotonic()
             with self._lock:

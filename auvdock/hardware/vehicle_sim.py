@@ -350,6 +350,9 @@ class VehicleSim:
 
         self._x = mission.start_state().astype(float)
         self._k = 0  # physics steps done; t = k dt
+        self._target_dock: Any | None = None
+        self._target_period = 0.1
+        self._next_target = 0.0
         self._armed = False
         self._armed_at = 0.0
         self._mode = MODES["MANUAL"]
@@ -824,6 +827,9 @@ class VehicleSim:
             self._next_heartbeat += HEARTBEAT_PERIOD_S
             if self._next_heartbeat <= t:
                 self._next_heartbeat = t + HEARTBEAT_PERIOD_S
+        if self._target_dock is not None and t + eps >= self._next_target:
+            self._send_landing_target(t)
+            self._next_target = max(self._next_target + self._target_period, t)
         due = [m for m, when in self._next_due.items() if t + eps >= when]
         if not due:
             return
@@ -839,6 +845,42 @@ class VehicleSim:
             interval = self._intervals[msg_id]
             nxt = self._next_due[msg_id] + interval
             self._next_due[msg_id] = nxt if nxt > t else t + interval
+
+    def set_landing_target(self, dock: Any | None, rate_hz: float = 10.0) -> None:
+        """Act as a positioning system on the vehicle: send LANDING_TARGET for ``dock``.
+
+        ``dock`` is anything with ``position(t)`` (NED m at simulated time t, e.g. a
+        :class:`auvdock.dock.HeaveDock`), or None to stop.  Sent at ``rate_hz`` in
+        MAV_FRAME_BODY_FRD (the dock's position relative to the vehicle in body axes, m)
+        with ``position_valid = 1``, from this vehicle's system id.
+        """
+        with self._lock:
+            self._target_dock = dock
+            self._target_period = 1.0 / float(rate_hz)
+            self._next_target = self._k * self.dt
+
+    def _send_landing_target(self, t: float) -> None:
+        x = self._x
+        p = np.asarray(self._target_dock.position(t), dtype=float)
+        R = self._rotation(x)  # {b} -> {n}, from the one vehicle model
+        rel = R.T @ (p - x[0:3])
+        self._send(
+            self._conn.mav.landing_target_send,
+            int(t * 1e6),
+            0,
+            M.MAV_FRAME_BODY_FRD,
+            0.0,
+            0.0,
+            float(np.linalg.norm(rel)),
+            0.0,
+            0.0,
+            float(rel[0]),
+            float(rel[1]),
+            float(rel[2]),
+            [1.0, 0.0, 0.0, 0.0],
+            M.LANDING_TARGET_TYPE_VISION_FIDUCIAL,
+            1,
+        )
 
     def _n(self, std: float, size: int | None = None) -> Any:
         if not self.noise or std <= 0:
