@@ -189,7 +189,13 @@ class HeaveSpec(_Strict):
 
     @model_validator(mode="after")
     def _one_frequency(self) -> HeaveSpec:
-        if self.angular_frequency_rad_s is not None and self.frequency_hz is not None:
+        w, f = self.angular_frequency_rad_s, self.frequency_hz
+        # both are allowed only when they agree (a resolved mission written back by to_yaml)
+        if (
+            w is not None
+            and f is not None
+            and not math.isclose(w, 2 * math.pi * f, rel_tol=1e-9, abs_tol=1e-12)
+        ):
             raise ValueError("give either angular_frequency_rad_s or frequency_hz, not both")
         if self.angular_frequency_rad_s is None:
             self.angular_frequency_rad_s = (

@@ -202,3 +202,14 @@ def test_vehicle_file_missing(tmp_path: Path) -> None:
         load_mission(p)
     assert ei.value.field == "vehicle.file"
     assert "does not exist" in ei.value.problem
+
+
+def test_resolved_tank_mission_round_trips_through_yaml() -> None:
+    """A mission given with frequency_hz, written back by to_yaml (both fields filled), reads again."""
+    import yaml
+
+    from auvdock.mission import load_mission, parse_mission
+
+    m = load_mission(Path(__file__).resolve().parents[1] / "missions" / "tank_0p6hz.yaml")
+    again = parse_mission(yaml.safe_load(m.to_yaml()), "<written>")
+    assert again.dock.heave.angular_frequency_rad_s == m.dock.heave.angular_frequency_rad_s
