@@ -1,0 +1,93 @@
+"""``auvdock bench``: per-step solve time of each controller x solver on the paper's cases.
+
+Each row is one full closed-loop run (:func:`auvdock.simulation.simulate`) of a shipped
+paper mission with the given controller and solver; the figures are the wall time of the
+whole controller step (estimator, perception law and MPC for the FSE controllers), in ms:
+median, p95, p99 and max, plus the real-time factor (simulated s per wall s), the docking
+outcome and the time to dock.  Figures are measured, never asserted in tests.
+"""
+
+from __future__ import annotations
+
+import os
+import platform
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+from .campaign import PAPER_MISSIONS, default_missions_dir
+
+__all__ = ["DEFAULT_CASES", "machine_line", "bench_rows"]
+
+DEFAULT_CASES = (1, 2, 6)
+
+
+def machine_line() -> str:
+    """One line naming the machine the figures come from."""
+    import casadi
+
+    cpu = platform.processor() or platform.machine()
+    return (
+        f"{platform.system()} {platform.machine()} ({cpu}), {os.cpu_count()} cores, "
+        f"Python {platform.python_version()}, CasADi {casadi.__version__}"
+    )
+
+
+def bench_rows(
+    cases: Sequence[int] = DEFAULT_CASES,
+    controllers: Sequence[str] = ("naive", "kinematic", "oracle", "sequential", "optimized"),
+    solvers: Sequence[str] = ("auto",),
+    *,
+    timeout_s: float | None = None,
+    on_row: Callable[[dict[str, Any]], None] | None = None,
+) -> list[dict[str, Any]]:
+    """Run every case x controller x solver once and return one row (dict) per run.
+
+    Parameters
+    ----------
+    cases : sequence of int
+        Paper case numbers 1..6 (the shipped missions ``missions/<name>.yaml``).
+    controllers, solvers : sequence of str
+        Controller names and ``controller.solver.name`` values (``auto``, ``sqp``, ``ipopt``).
+    timeout_s : float, optional
+        Simulated-time limit (default: the mission's 75 s).
+    on_row : callable, optional
+        Called with each row as soon as it is measured.
+    """
+    from .controllers import resolve_solver
+    from .mission import load_mission
+    from .simulation import simulate
+
+    d = default_missions_dir()
+    rows = []
+    for case in cases:
+        if not 1 <= case <= len(PAPER_MISSIONS):
+            raise ValueError(f"case {case}: the paper's cases are 1..{len(PAPER_MISSIONS)}")
+        base = load_mission(d / f"{PAPER_MISSIONS[case - 1]}.yaml")
+        for ctrl in controllers:
+            for solver in solvers:
+                m = base.with_updates(**{"controller.type": ctrl, "controller.solver.name": solver})
+                s = simulate(m, timeout_s=timeout_s)
+                o = s.outcome
+                ms = np.asarray(s.solve_times_s) * 1e3
+                row = {
+                    "case": case,
+                    "mission": base.name,
+                    "controller": ctrl,
+                    "solver": resolve_solver(solver, ctrl),
+                    "docked": bool(o["docked"]),
+                    "time_to_dock_s": float(o["time_to_dock_s"]),
+                    "median_ms": float(np.median(ms)),
+                    "p95_ms": float(np.percentile(ms, 95)),
+                    "p99_ms": float(np.percentile(ms, 99)),
+                    "max_ms": float(ms.max()),
+                    "real_time_factor": float(o["real_time_factor"]),
+                    "wall_time_s": float(o["wall_time_s"]),
+                    "solver_failures": int(o["solver_failures"]),
+                    "steps": int(len(ms)),
+                }
+                rows.append(row)
+                if on_row is not None:
+                    on_row(row)
+    return rows

@@ -1,0 +1,43 @@
+"""``auvdock bench``: the table and JSON output on a short run; bad input exits 2."""
+
+from __future__ import annotations
+
+import json
+
+from typer.testing import CliRunner
+
+from auvdock.cli import app
+
+runner = CliRunner()
+
+
+def test_bench_json_rows() -> None:
+    res = runner.invoke(app, ["bench", "--case", "2", "-c", "oracle,naive", "--timeout", "1", "--json"])
+    assert res.exit_code == 0, res.output
+    rows = [json.loads(line) for line in res.stdout.strip().splitlines()]
+    assert [(r["case"], r["controller"], r["solver"]) for r in rows] == [
+        (2, "oracle", "sqp"),
+        (2, "naive", "sqp"),
+    ]
+    for r in rows:
+        assert r["docked"] is False and r["time_to_dock_s"] is None  # 1 s is too short
+        assert r["steps"] == 20
+        assert 0 < r["median_ms"] <= r["p95_ms"] <= r["p99_ms"] <= r["max_ms"]
+
+
+def test_bench_table() -> None:
+    res = runner.invoke(
+        app, ["bench", "--case", "1", "-c", "oracle", "--solvers", "ipopt", "--timeout", "0.5"]
+    )
+    assert res.exit_code == 0, res.output
+    assert "bench on " in res.output and "CasADi" in res.output
+    assert "median" in res.output
+
+
+def test_bench_bad_input() -> None:
+    res = runner.invoke(app, ["bench", "--case", "7"])
+    assert res.exit_code == 2
+    assert res.stderr.strip() == "error: --case: 7 is not one of the paper's cases 1..6"
+    res = runner.invoke(app, ["bench", "--solvers", "fast"])
+    assert res.exit_code == 2
+    assert res.stderr.strip() == "error: --solvers: unknown solver 'fast' (known: auto, ipopt, sqp)"
