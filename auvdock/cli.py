@@ -65,6 +65,9 @@ def _main(
     ),
 ) -> None:
     """auvdock: flow-state-estimating MPC docking for underwater vehicles."""
+    from .codegen import set_reporter
+
+    set_reporter(_compile_notice)
 
 
 def _flatten(prefix: str, value: Any, rows: list[tuple[str, str]]) -> None:
@@ -200,6 +203,10 @@ def sim(
         f"[bold]{m.name}[/bold]: {m.build_flow().describe()}; controller [bold]{name}[/bold] "
         f"(N = {m.controller.horizon_steps}, dt = {m.controller.dt_s} s, {solver})"
     )
+    from .autopilot import Autopilot
+
+    # build (and, the first time, compile) the controller before the progress display starts
+    ap = Autopilot(m, m.build_vehicle(), m.build_dock(), name)
     with Progress(
         SpinnerColumn(),
         TextColumn("[progress.description]{task.description}"),
@@ -224,7 +231,7 @@ def sim(
                 )
 
         try:
-            summary = simulate(m, out=h5, progress=on_step, timeout_s=timeout)
+            summary = simulate(m, out=h5, progress=on_step, timeout_s=timeout, autopilot=ap)
         except KeyboardInterrupt:
             err_console.print(f"interrupted: the steps so far are in {h5} (complete = False)")
             raise typer.Exit(code=130) from None
@@ -623,6 +630,41 @@ def bench(
 
     bench_rows(case_list, ctrls, solv, timeout_s=timeout, on_row=add)
     console.print(t)
+
+
+cache_app = typer.Typer(help="The compiled-solver cache (see auvdock.codegen).", no_args_is_help=True)
+app.add_typer(cache_app, name="cache")
+
+
+@cache_app.command("info")
+def cache_info() -> None:
+    """Where the compiled solvers are, how many, how large; and whether compiling is possible."""
+    from .codegen import cache_dir, cache_entries, compile_mode, find_compiler
+
+    entries = cache_entries()
+    total = sum(n for _, n in entries)
+    console.print(f"cache: {cache_dir()}")
+    console.print(f"compiled solvers: {len(entries)} ({total / 1e6:.1f} MB)")
+    for p, n in entries:
+        console.print(f"  {p.name}  {n / 1e6:.1f} MB")
+    cc = find_compiler()
+    console.print(
+        f"compiler: {cc or 'none found (solvers run uncompiled)'}; AUVDOCK_COMPILE={compile_mode()}"
+    )
+
+
+@cache_app.command("clear")
+def cache_clear() -> None:
+    """Remove every compiled solver from the cache."""
+    from .codegen import cache_dir, clear_cache
+
+    n = clear_cache()
+    console.print(f"removed {n} compiled solver{'s' if n != 1 else ''} from {cache_dir()}")
+
+
+def _compile_notice(message: str):
+    """Shown while a solver compiles (first use of a problem)."""
+    return err_console.status(f"[bold]{message}[/bold] - about a minute, once", spinner="dots")
 
 
 def main() -> None:

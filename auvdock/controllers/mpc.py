@@ -40,6 +40,7 @@ from typing import Literal
 import casadi as ca
 import numpy as np
 
+from ..codegen import compiled_nlpsol
 from ..dock import HeaveDock
 from ..results import STATUS_FAILED, STATUS_FALLBACK_ZERO, STATUS_NAMES, STATUS_NOT_CONVERGED, STATUS_OK
 from ..vehicle import Vehicle
@@ -279,7 +280,7 @@ class DockingMPC:
                 "warm_start_bound_push": 1e-6,
                 "warm_start_mult_bound_push": 1e-6,
             }
-            self._solver = ca.nlpsol("mpc", "ipopt", nlp, opts)
+            self._solver, self.build = compiled_nlpsol("mpc", "ipopt", nlp, opts)
         elif solver == "sqp":
             opts = dict(opts_common)
             opts.update(
@@ -302,7 +303,7 @@ class DockingMPC:
             )
             if hessian == "exact":
                 opts["convexify_strategy"] = "regularize"
-            self._solver = ca.nlpsol("mpc", "sqpmethod", nlp, opts)
+            self._solver, self.build = compiled_nlpsol("mpc", "sqpmethod", nlp, opts)
         else:
             raise ValueError(f"unknown solver {solver!r} (known: ipopt, sqp)")
 

@@ -1,0 +1,219 @@
+"""Compiled solvers, cached: CasADi-generated C built once into a shared library and reused.
+
+Evaluating the MPC's derivatives in CasADi's virtual machine costs most of a solve;
+the same functions as compiled C run several times faster.  Compiling takes tens of
+seconds, so :func:`compiled_nlpsol` does it once per problem: the generated C of the
+solver's functions (and of a custom Hessian) is compiled with the system's C compiler into
+``<cache>/solvers/<name>-<key>.so``, ``key`` a SHA-256 of everything that defines the
+problem (the NLP's expressions with the model parameters, horizon and weights folded in,
+the solver plugin and its options, the CasADi version and the compiler flags), and later
+builds of the same problem load it (well under a second).
+
+* cache directory: ``$AUVDOCK_CACHE_DIR``, else ``$XDG_CACHE_HOME/auvdock``, else
+  ``~/.cache/auvdock``;
+* ``$AUVDOCK_COMPILE``: ``auto`` (default: compile when a C compiler is found), ``never``
+  (always the uncompiled solver);
+* ``$CC`` names the compiler (default: ``cc``, then ``gcc``); without one the solver runs
+  uncompiled and a warning says so once;
+* a cache file that does not load (corrupted, truncated, built for another machine) is
+  removed and rebuilt, with a warning.
+
+``auvdock cache info`` lists the cache, ``auvdock cache clear`` empties it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import os
+import shutil
+import subprocess
+import tempfile
+import warnings
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import casadi as ca
+
+__all__ = [
+    "cache_dir",
+    "compile_mode",
+    "find_compiler",
+    "compiled_nlpsol",
+    "cache_entries",
+    "clear_cache",
+    "set_reporter",
+    "CFLAGS",
+]
+
+CFLAGS = ("-O1", "-fPIC", "-shared")
+_warned_no_compiler = False
+_reporter: Callable[[str], contextlib.AbstractContextManager] | None = None
+
+
+def set_reporter(fn: Callable[[str], contextlib.AbstractContextManager] | None) -> None:
+    """Show long compiles: ``fn(message)`` returns a context manager held while compiling."""
+    global _reporter
+    _reporter = fn
+
+
+@contextlib.contextmanager
+def _reporting(message: str) -> Iterator[None]:
+    if _reporter is None:
+        yield
+        return
+    with _reporter(message):
+        yield
+
+
+def cache_dir() -> Path:
+    """Where compiled solvers live (``.../auvdock/solvers``)."""
+    root = os.environ.get("AUVDOCK_CACHE_DIR")
+    if root:
+        base = Path(root)
+    else:
+        xdg = os.environ.get("XDG_CACHE_HOME")
+        base = (Path(xdg) if xdg else Path.home() / ".cache") / "auvdock"
+    return base / "solvers"
+
+
+def compile_mode() -> str:
+    """``auto`` or ``never`` (from ``$AUVDOCK_COMPILE``)."""
+    mode = os.environ.get("AUVDOCK_COMPILE", "auto").strip().lower()
+    if mode not in ("auto", "never"):
+        raise ValueError(f"AUVDOCK_COMPILE={mode!r}: expected auto or never")
+    return mode
+
+
+def find_compiler() -> str | None:
+    """The C compiler to use, or None."""
+    for name in (os.environ.get("CC"), "cc", "gcc"):
+        if name and shutil.which(name):
+            return shutil.which(name)
+    return None
+
+
+def _key(parts: list[bytes | str]) -> str:
+    h = hashlib.sha256()
+    for p in [ca.__version__, " ".join(CFLAGS), *parts]:
+        b = p.encode() if isinstance(p, str) else bytes(p)
+        h.update(len(b).to_bytes(8, "little"))
+        h.update(b)
+    return h.hexdigest()[:24]
+
+
+def _load(name: str, plugin: str, so: Path, opts: dict[str, Any], has_hessian: bool) -> ca.Function:
+    o = {k: v for k, v in opts.items() if k not in ("expand", "hess_lag")}
+    if has_hessian:
+        o["hess_lag"] = ca.external("nlp_hess_l", str(so))
+    return ca.nlpsol(name, plugin, str(so), o)
+
+
+def compiled_nlpsol(
+    name: str,
+    plugin: str,
+    nlp: dict[str, Any],
+    opts: dict[str, Any],
+    *,
+    key_parts: list[bytes | str] | None = None,
+) -> tuple[ca.Function, str]:
+    """``ca.nlpsol(name, plugin, nlp, opts)``, compiled and cached when possible.
+
+    Parameters
+    ----------
+    nlp : dict
+        ``{"x", "f", "g", "p"}`` (SX expressions).
+    opts : dict
+        Solver options; a ``hess_lag`` Function among them is compiled too.
+    key_parts : list, optional
+        Anything else that defines the problem (added to the cache key).
+
+    Returns
+    -------
+    (solver, how)
+        ``how`` is ``"cache"`` (loaded), ``"compiled"`` (built now), or ``"uncompiled"``.
+    """
+    global _warned_no_compiler
+    solver = ca.nlpsol(name, plugin, nlp, opts)
+    if compile_mode() == "never":
+        return solver, "uncompiled"
+    cc = find_compiler()
+    if cc is None:
+        if not _warned_no_compiler:
+            warnings.warn("no C compiler found: MPC solvers run uncompiled (slower)", stacklevel=2)
+            _warned_no_compiler = True
+        return solver, "uncompiled"
+
+    hess = opts.get("hess_lag")
+    fn = ca.Function("nlp", [nlp["x"], nlp["p"]], [nlp["f"], nlp["g"]])
+    safe_opts = {k: v for k, v in opts.items() if k != "hess_lag"}
+    parts: list[bytes | str] = [
+        name,
+        plugin,
+        repr(sorted(safe_opts.items(), key=lambda kv: kv[0])),
+        fn.serialize(),
+    ]
+    if hess is not None:
+        parts.append(hess.serialize())
+    parts += list(key_parts or [])
+    key = _key(parts)
+    directory = cache_dir()
+    so = directory / f"{name}-{key}.so"
+    if so.is_file():
+        try:
+            return _load(name, plugin, so, opts, hess is not None), "cache"
+        except Exception as e:  # noqa: BLE001 -- a bad cache file is rebuilt, never fatal
+            warnings.warn(f"compiled solver {so} does not load ({e}); rebuilding it", stacklevel=2)
+            so.unlink(missing_ok=True)
+
+    directory.mkdir(parents=True, exist_ok=True)
+    with _reporting(f"compiling the {name} solver once (cached in {directory})"):
+        with tempfile.TemporaryDirectory(dir=directory) as tmp:
+            tmpd = Path(tmp)
+            cwd = os.getcwd()
+            os.chdir(tmpd)  # generate_dependencies writes into the working directory
+            try:
+                sources = [f"{name}_{key}_deps.c"]
+                solver.generate_dependencies(sources[0])
+                if hess is not None:
+                    cg = ca.CodeGenerator(f"{name}_{key}_hess.c")
+                    if hess.name() != "nlp_hess_l":
+                        raise ValueError(f"hess_lag must be named nlp_hess_l, not {hess.name()!r}")
+                    cg.add(hess)
+                    cg.generate()
+                    sources.append(f"{name}_{key}_hess.c")
+            finally:
+                os.chdir(cwd)
+            out = tmpd / "lib.so"
+            res = subprocess.run(
+                [cc, *CFLAGS, *[str(tmpd / s) for s in sources], "-o", str(out), "-lm"],
+                capture_output=True,
+                text=True,
+            )
+            if res.returncode != 0:
+                warnings.warn(
+                    f"compiling the {name} solver failed ({cc}: {res.stderr.strip()[:300]}); "
+                    "running uncompiled",
+                    stacklevel=2,
+                )
+                return solver, "uncompiled"
+            os.replace(out, so)  # atomic: concurrent builders never see a half-written file
+    return _load(name, plugin, so, opts, hess is not None), "compiled"
+
+
+def cache_entries() -> list[tuple[Path, int]]:
+    """The compiled solvers in the cache: (path, size in bytes)."""
+    d = cache_dir()
+    if not d.is_dir():
+        return []
+    return sorted((p, p.stat().st_size) for p in d.glob("*.so"))
+
+
+def clear_cache() -> int:
+    """Remove every compiled solver; returns how many were removed."""
+    n = 0
+    for p, _ in cache_entries():
+        p.unlink(missing_ok=True)
+        n += 1
+    return n

@@ -1,0 +1,82 @@
+"""The compiled-solver cache (auvdock.codegen): build once, load after, rebuild when needed."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from auvdock import codegen
+from auvdock.controllers import build_controller
+from auvdock.mission import load_mission
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture
+def cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("AUVDOCK_COMPILE", "auto")
+    monkeypatch.setenv("AUVDOCK_CACHE_DIR", str(tmp_path / "cache"))
+    if codegen.find_compiler() is None:
+        pytest.skip("no C compiler")
+    return tmp_path / "cache" / "solvers"
+
+
+def _small(**updates):
+    # a short horizon keeps the generated C small (a few seconds to compile)
+    m = load_mission(ROOT / "missions" / "diagonal.yaml").with_updates(
+        **{"controller.horizon_steps": 2, **updates}
+    )
+    return m, m.build_vehicle(), m.build_dock()
+
+
+def _first_move(c, m) -> np.ndarray:
+    return c.mpc.solve(0.0, m.start_state(), np.zeros(8), np.array([0.5, 0.5, 0.0])).thrust
+
+
+def test_build_once_then_load_and_same_answer(cache, monkeypatch) -> None:
+    m, v, d = _small()
+    c1 = build_controller(m, v, d, "oracle")
+    assert c1.mpc.build == "compiled"
+    assert len(list(cache.glob("*.so"))) == 1
+    c2 = build_controller(m, v, d, "oracle")
+    assert c2.mpc.build == "cache"
+    # the compiled solver gives the uncompiled one's answer
+    u_compiled = _first_move(c2, m)
+    monkeypatch.setenv("AUVDOCK_COMPILE", "never")
+    c3 = build_controller(m, v, d, "oracle")
+    assert c3.mpc.build == "uncompiled"
+    assert np.allclose(u_compiled, _first_move(c3, m), atol=1e-6)
+
+
+def test_changed_parameter_builds_anew(cache) -> None:
+    m, v, d = _small()
+    assert build_controller(m, v, d, "oracle").mpc.build == "compiled"
+    m2, v2, d2 = _small(**{"controller.weights.R": 20.0})
+    assert build_controller(m2, v2, d2, "oracle").mpc.build == "compiled"
+    assert len(list(cache.glob("*.so"))) == 2
+    assert {p.name for p, _ in codegen.cache_entries()} == {p.name for p in cache.glob("*.so")}
+    assert codegen.clear_cache() == 2
+    assert codegen.cache_entries() == []
+
+
+def test_corrupted_cache_file_is_rebuilt_with_a_warning(cache) -> None:
+    m, v, d = _small()
+    build_controller(m, v, d, "oracle")
+    (so,) = cache.glob("*.so")
+    so.write_bytes(b"not a shared library")
+    with pytest.warns(UserWarning, match="does not load"):
+        c = build_controller(m, v, d, "oracle")
+    assert c.mpc.build == "compiled"
+    assert so.stat().st_size > 1000
+
+
+def test_no_compiler_runs_uncompiled_with_a_warning(cache, monkeypatch) -> None:
+    monkeypatch.setattr(codegen, "find_compiler", lambda: None)
+    monkeypatch.setattr(codegen, "_warned_no_compiler", False)
+    m, v, d = _small()
+    with pytest.warns(UserWarning, match="no C compiler found"):
+        c = build_controller(m, v, d, "oracle")
+    assert c.mpc.build == "uncompiled"
+    assert np.all(np.isfinite(_first_move(c, m)))
