@@ -146,7 +146,7 @@ def compiled_nlpsol(
         return solver, "uncompiled"
 
     hess = opts.get("hess_lag")
-    fn = ca.Function("nlp", [nlp["x"], nlp["p"]], [nlp["f"], nlp["g"]])
+    fn = ca.Function("nlp", [nlp["x"], nlp["p"]], [nlp["f"], nlp.get("g", ca.SX(0, 1))])
     safe_opts = {k: v for k, v in opts.items() if k != "hess_lag"}
     parts: list[bytes | str] = [
         name,

@@ -45,6 +45,7 @@ import time
 import casadi as ca
 import numpy as np
 
+from ..codegen import compiled_nlpsol
 from ..dock import HeaveDock
 from ..estimator import FlowEstimator, flow_transition, information_lower_bound
 from ..mission import Mission
@@ -108,7 +109,7 @@ class PerceptionLaw:
         scale = ca.SX.sym("scale")
         obj = -information_lower_bound(G_next) / scale
         self.wrench_max = np.asarray(wrench_max, dtype=float)
-        self._solver = ca.nlpsol(
+        self._solver, self.build = compiled_nlpsol(
             "perception",
             "ipopt",
             {"x": tau, "f": obj, "p": ca.vertcat(x, f_ned, g6, scale)},
