@@ -40,7 +40,7 @@ import traceback
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -810,8 +810,3 @@ def check_findings(records: list[dict[str, Any]]) -> list[Finding]:
     else:
         out.append(Finding(text, "no FSE runs", "not run"))
     return out
-
-
-def spec_dict(spec: RunSpec) -> dict[str, Any]:
-    """A RunSpec as a plain dict (for logs)."""
-    return asdict(spec)

@@ -284,6 +284,17 @@ def _split_list(values: list[str] | None) -> list[str]:
     return out
 
 
+def _controller_list(controllers: list[str] | None) -> list[str]:
+    """``--controllers`` (comma-separated or repeated; default all five), or exit 2 naming the bad one."""
+    from .controllers import CONTROLLER_NAMES
+
+    ctrls = _split_list(controllers) or list(CONTROLLER_NAMES)
+    for c in ctrls:
+        if c not in CONTROLLER_NAMES:
+            fail_input(f"--controllers: unknown controller {c!r} (known: {', '.join(CONTROLLER_NAMES)})")
+    return ctrls
+
+
 def _campaign_outputs(path: Path, out_dir: Path, *, pdf: bool, plots: bool, records=None, attrs=None) -> None:
     """Tables, findings and figures of a campaign file, printed and written to ``out_dir``."""
     from .campaign import SUMMARY_HEADER, check_findings, read_campaign, summary_rows, write_tables
@@ -342,12 +353,8 @@ def compare(
     import shlex
 
     from .campaign import PAPER_MISSIONS, campaign_specs, default_missions_dir, run_campaign
-    from .controllers import CONTROLLER_NAMES
 
-    ctrls = _split_list(controllers) or list(CONTROLLER_NAMES)
-    for c in ctrls:
-        if c not in CONTROLLER_NAMES:
-            fail_input(f"--controllers: unknown controller {c!r} (known: {', '.join(CONTROLLER_NAMES)})")
+    ctrls = _controller_list(controllers)
     given_missions = list(missions or [])
     if not missions:
         d = default_missions_dir()
@@ -586,13 +593,9 @@ def bench(
     import json
 
     from .bench import DEFAULT_CASES, bench_rows, machine_line
-    from .controllers import CONTROLLER_NAMES
     from .mission import SOLVER_NAMES
 
-    ctrls = _split_list(controllers) or list(CONTROLLER_NAMES)
-    for c in ctrls:
-        if c not in CONTROLLER_NAMES:
-            fail_input(f"--controllers: unknown controller {c!r} (known: {', '.join(CONTROLLER_NAMES)})")
+    ctrls = _controller_list(controllers)
     solv = _split_list(solvers) or ["auto"]
     for s_ in solv:
         if s_ not in SOLVER_NAMES:

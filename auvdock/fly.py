@@ -43,6 +43,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from pymavlink import mavutil
 
 from .autopilot import Autopilot
 from .controllers import Measurement
@@ -138,7 +139,7 @@ class FlySession:
         self._last_target: int | None = None
         rot = self.vehicle.model.function("rotation")
         self._R = lambda angles: np.asarray(rot(angles))
-        self.link._on_event = self._event
+        self.link.on_event = self._event
 
     # ------------------------------------------------------------------------------------
     def _event(self, text: str) -> None:
@@ -214,8 +215,6 @@ class FlySession:
         MAV_FRAME_LOCAL_NED (the autopilot's NED frame, mapped to the mission frame).
         Messages without ``position_valid`` are ignored.
         """
-        from pymavlink import mavutil
-
         lt, age = self.link.latest("LANDING_TARGET")
         if lt is None or not getattr(lt, "position_valid", 0):
             return float("inf")
@@ -264,8 +263,6 @@ class FlySession:
             except LinkError as e:
                 raise FlyAbortError(str(e)) from None
             rate = m.fly.telemetry_rate_hz
-            from pymavlink import mavutil
-
             for name in TELEMETRY_MESSAGES:
                 msg_id = getattr(mavutil.mavlink, f"MAVLINK_MSG_ID_{name}")
                 try:

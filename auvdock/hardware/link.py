@@ -85,7 +85,8 @@ class MavlinkLink:
     tlog : str or Path, optional
         Record every message, both ways, to this ``.tlog`` file.
     on_event : callable, optional
-        ``on_event(text)`` for link events (connected, armed, mode changed, ...).
+        ``on_event(text)`` for link events (connected, armed, mode changed, ...); also the
+        attribute ``on_event``, which a session may set after construction.
     """
 
     def __init__(
@@ -99,7 +100,7 @@ class MavlinkLink:
         self.port = port
         self.url = connection_string(port)
         self.sysid = int(sysid)
-        self._on_event = on_event
+        self.on_event = on_event
         self._lock = threading.Lock()
         self._tlog_lock = threading.Lock()
         self._latest: dict[str, tuple[Any, float]] = {}
@@ -137,8 +138,8 @@ class MavlinkLink:
             pass
 
     def _event(self, text: str) -> None:
-        if self._on_event is not None:
-            self._on_event(text)
+        if self.on_event is not None:
+            self.on_event(text)
 
     # -- connection -----------------------------------------------------------------------
     def connect(self, timeout_s: float = 10.0) -> Any:
