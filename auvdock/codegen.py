@@ -41,6 +41,7 @@ __all__ = [
     "compile_mode",
     "find_compiler",
     "compiled_nlpsol",
+    "compiled_function",
     "cache_entries",
     "clear_cache",
     "set_reporter",
@@ -110,6 +111,67 @@ def _load(name: str, plugin: str, so: Path, opts: dict[str, Any], has_hessian: b
     return ca.nlpsol(name, plugin, str(so), o)
 
 
+def _compiler_or_none() -> str | None:
+    """The compiler to build with, or None (compilation off, or no compiler: warned once)."""
+    global _warned_no_compiler
+    if compile_mode() == "never":
+        return None
+    cc = find_compiler()
+    if cc is None and not _warned_no_compiler:
+        warnings.warn("no C compiler found: MPC solvers run uncompiled (slower)", stacklevel=3)
+        _warned_no_compiler = True
+    return cc
+
+
+def _cached_build(
+    name: str,
+    parts: list[bytes | str],
+    cc: str,
+    write_sources: Callable[[str], list[str]],
+    load: Callable[[Path], Any],
+) -> tuple[Any, str] | None:
+    """Load ``<cache>/<name>-<key>.so`` or build it; None when compiling failed (warned).
+
+    ``write_sources(stem)`` writes C files into the working directory and returns their
+    names; ``load(so)`` makes the CasADi object from the library.
+    """
+    key = _key([name, *parts])
+    directory = cache_dir()
+    so = directory / f"{name}-{key}.so"
+    if so.is_file():
+        try:
+            return load(so), "cache"
+        except Exception as e:  # noqa: BLE001 -- a bad cache file is rebuilt, never fatal
+            warnings.warn(f"compiled solver {so} does not load ({e}); rebuilding it", stacklevel=3)
+            so.unlink(missing_ok=True)
+
+    directory.mkdir(parents=True, exist_ok=True)
+    with _reporting(f"compiling the {name} solver once (cached in {directory})"):
+        with tempfile.TemporaryDirectory(dir=directory) as tmp:
+            tmpd = Path(tmp)
+            cwd = os.getcwd()
+            os.chdir(tmpd)  # CasADi's code generators write into the working directory
+            try:
+                sources = write_sources(f"{name}_{key}")
+            finally:
+                os.chdir(cwd)
+            out = tmpd / "lib.so"
+            res = subprocess.run(
+                [cc, *CFLAGS, *[str(tmpd / s) for s in sources], "-o", str(out), "-lm"],
+                capture_output=True,
+                text=True,
+            )
+            if res.returncode != 0:
+                warnings.warn(
+                    f"compiling the {name} solver failed ({cc}: {res.stderr.strip()[:300]}); "
+                    "running uncompiled",
+                    stacklevel=3,
+                )
+                return None
+            os.replace(out, so)  # atomic: concurrent builders never see a half-written file
+    return load(so), "compiled"
+
+
 def compiled_nlpsol(
     name: str,
     plugin: str,
@@ -134,72 +196,63 @@ def compiled_nlpsol(
     (solver, how)
         ``how`` is ``"cache"`` (loaded), ``"compiled"`` (built now), or ``"uncompiled"``.
     """
-    global _warned_no_compiler
     solver = ca.nlpsol(name, plugin, nlp, opts)
-    if compile_mode() == "never":
-        return solver, "uncompiled"
-    cc = find_compiler()
+    cc = _compiler_or_none()
     if cc is None:
-        if not _warned_no_compiler:
-            warnings.warn("no C compiler found: MPC solvers run uncompiled (slower)", stacklevel=2)
-            _warned_no_compiler = True
         return solver, "uncompiled"
 
     hess = opts.get("hess_lag")
+    if hess is not None and hess.name() != "nlp_hess_l":
+        raise ValueError(f"hess_lag must be named nlp_hess_l, not {hess.name()!r}")
     fn = ca.Function("nlp", [nlp["x"], nlp["p"]], [nlp["f"], nlp.get("g", ca.SX(0, 1))])
     safe_opts = {k: v for k, v in opts.items() if k != "hess_lag"}
-    parts: list[bytes | str] = [
-        name,
-        plugin,
-        repr(sorted(safe_opts.items(), key=lambda kv: kv[0])),
-        fn.serialize(),
-    ]
+    parts: list[bytes | str] = [plugin, repr(sorted(safe_opts.items(), key=lambda kv: kv[0])), fn.serialize()]
     if hess is not None:
         parts.append(hess.serialize())
     parts += list(key_parts or [])
-    key = _key(parts)
-    directory = cache_dir()
-    so = directory / f"{name}-{key}.so"
-    if so.is_file():
-        try:
-            return _load(name, plugin, so, opts, hess is not None), "cache"
-        except Exception as e:  # noqa: BLE001 -- a bad cache file is rebuilt, never fatal
-            warnings.warn(f"compiled solver {so} does not load ({e}); rebuilding it", stacklevel=2)
-            so.unlink(missing_ok=True)
 
-    directory.mkdir(parents=True, exist_ok=True)
-    with _reporting(f"compiling the {name} solver once (cached in {directory})"):
-        with tempfile.TemporaryDirectory(dir=directory) as tmp:
-            tmpd = Path(tmp)
-            cwd = os.getcwd()
-            os.chdir(tmpd)  # generate_dependencies writes into the working directory
-            try:
-                sources = [f"{name}_{key}_deps.c"]
-                solver.generate_dependencies(sources[0])
-                if hess is not None:
-                    cg = ca.CodeGenerator(f"{name}_{key}_hess.c")
-                    if hess.name() != "nlp_hess_l":
-                        raise ValueError(f"hess_lag must be named nlp_hess_l, not {hess.name()!r}")
-                    cg.add(hess)
-                    cg.generate()
-                    sources.append(f"{name}_{key}_hess.c")
-            finally:
-                os.chdir(cwd)
-            out = tmpd / "lib.so"
-            res = subprocess.run(
-                [cc, *CFLAGS, *[str(tmpd / s) for s in sources], "-o", str(out), "-lm"],
-                capture_output=True,
-                text=True,
-            )
-            if res.returncode != 0:
-                warnings.warn(
-                    f"compiling the {name} solver failed ({cc}: {res.stderr.strip()[:300]}); "
-                    "running uncompiled",
-                    stacklevel=2,
-                )
-                return solver, "uncompiled"
-            os.replace(out, so)  # atomic: concurrent builders never see a half-written file
-    return _load(name, plugin, so, opts, hess is not None), "compiled"
+    def write_sources(stem: str) -> list[str]:
+        sources = [f"{stem}_deps.c"]
+        solver.generate_dependencies(sources[0])
+        if hess is not None:
+            cg = ca.CodeGenerator(f"{stem}_hess.c")
+            cg.add(hess)
+            cg.generate()
+            sources.append(f"{stem}_hess.c")
+        return sources
+
+    built = _cached_build(
+        name, parts, cc, write_sources, lambda so: _load(name, plugin, so, opts, hess is not None)
+    )
+    return (solver, "uncompiled") if built is None else built
+
+
+def compiled_function(
+    fn: ca.Function, *, key_parts: list[bytes | str] | None = None
+) -> tuple[ca.Function, str]:
+    """A CasADi Function, compiled and cached when possible (same cache and rules as solvers).
+
+    Returns ``(function, how)`` with ``how`` as in :func:`compiled_nlpsol`; the function has
+    the same inputs and outputs (and name) as ``fn``.
+    """
+    cc = _compiler_or_none()
+    if cc is None:
+        return fn, "uncompiled"
+
+    def write_sources(stem: str) -> list[str]:
+        cg = ca.CodeGenerator(f"{stem}.c")
+        cg.add(fn)
+        cg.generate()
+        return [f"{stem}.c"]
+
+    built = _cached_build(
+        fn.name(),
+        [fn.serialize(), *(key_parts or [])],
+        cc,
+        write_sources,
+        lambda so: ca.external(fn.name(), str(so)),
+    )
+    return (fn, "uncompiled") if built is None else built
 
 
 def cache_entries() -> list[tuple[Path, int]]:

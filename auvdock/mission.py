@@ -46,7 +46,7 @@ __all__ = [
 ]
 
 CONTROLLER_TYPES = ("naive", "kinematic", "oracle", "sequential", "optimized")
-SOLVER_NAMES = ("auto", "ipopt", "sqp")
+SOLVER_NAMES = ("auto", "ipopt", "sqp", "rti")
 
 PosFloat = Annotated[float, Field(gt=0)]
 NonNegFloat = Annotated[float, Field(ge=0)]
@@ -269,11 +269,12 @@ class BoundsSpec(_Strict):
 class SolverSpec(_Strict):
     """Numerical solver of the MPC problem."""
 
-    name: Literal["auto", "ipopt", "sqp"] = Field(
+    name: Literal["auto", "ipopt", "sqp", "rti"] = Field(
         default="auto",
         description=(
-            "sqp (sqpmethod + qrqp, Gauss-Newton), ipopt (interior point) or auto: "
-            "ipopt for the optimized controller (its information term is non-convex), sqp otherwise"
+            "sqp (sqpmethod + qrqp, Gauss-Newton, iterated to convergence), rti (real-time "
+            "iteration: one Gauss-Newton QP step per control step), ipopt (interior point) or auto "
+            "(see auvdock.controllers.resolve_solver)"
         ),
     )
     max_iter: Annotated[int, Field(ge=1)] = Field(default=100, description="iteration limit per solve")
@@ -295,6 +296,13 @@ class ControllerSpec(_Strict):
     perception_wrench_max: Vec6Pos = Field(
         default=[0.1, 0.1, 0.1, 0.1, 0.1, 0.1],
         description="Sequential FSE-MPC: bound of the active-perception wrench (N, N m), 6 values",
+    )
+    perception_solver: Literal["corners", "sqp", "ipopt"] = Field(
+        default="corners",
+        description=(
+            "Sequential FSE-MPC: how law (9) is solved: corners (best of the 64 corners of the "
+            "wrench box, one compiled call) or ipopt (local optimum from a fixed start)"
+        ),
     )
 
 

@@ -16,8 +16,8 @@ def test_bench_json_rows() -> None:
     assert res.exit_code == 0, res.output
     rows = [json.loads(line) for line in res.stdout.strip().splitlines()]
     assert [(r["case"], r["controller"], r["solver"]) for r in rows] == [
-        (2, "oracle", "sqp"),
-        (2, "naive", "sqp"),
+        (2, "oracle", "rti"),
+        (2, "naive", "rti"),
     ]
     for r in rows:
         assert r["docked"] is False and r["time_to_dock_s"] is None  # 1 s is too short
@@ -40,4 +40,4 @@ def test_bench_bad_input() -> None:
     assert res.stderr.strip() == "error: --case: 7 is not one of the paper's cases 1..6"
     res = runner.invoke(app, ["bench", "--solvers", "fast"])
     assert res.exit_code == 2
-    assert res.stderr.strip() == "error: --solvers: unknown solver 'fast' (known: auto, ipopt, sqp)"
+    assert res.stderr.strip() == "error: --solvers: unknown solver 'fast' (known: auto, ipopt, sqp, rti)"

@@ -10,12 +10,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import casadi as ca
 import numpy as np
 import pytest
 from typer.testing import CliRunner
 
 from auvdock.cli import app
-from auvdock.controllers import resolve_solver
+from auvdock.controllers.fse import PerceptionLaw, gramian_step
+from auvdock.estimator import information_lower_bound
 from auvdock.mission import load_mission
 from auvdock.results import read_run
 from auvdock.simulation import simulate
@@ -48,8 +50,10 @@ def test_docks_in_case2_from_zero_prior(which, request) -> None:
     assert s.docked, s.outcome
     assert s.outcome["time_to_dock_s"] < 75.0
     assert s.outcome["closest_approach_m"] <= 0.05
-    # the estimate converged to the true 0.71 m/s current
-    assert s.outcome["flow_final_error_m_s"] < 0.02
+    # the estimate converged to the true 0.71 m/s current (from a 0.71 m/s error): within
+    # 0.03 m/s (4 %) at docking.  Sequential docks at 25.6 s with the corners law (40 s with
+    # the IPOPT law), so its filter has less time: measured 0.020 (0.004 with IPOPT's law).
+    assert s.outcome["flow_final_error_m_s"] < 0.03
 
 
 def test_optimized_estimates_better_than_sequential(sequential, optimized) -> None:
@@ -84,10 +88,31 @@ def test_sequential_applies_bounded_perception_wrench(sequential) -> None:
     assert np.max(np.abs(w[:, 5])) > 0.5 * bound[5]  # the law does turn the vehicle
 
 
-def test_auto_solver_choice() -> None:
-    assert resolve_solver("auto", "optimized") == "ipopt"
-    assert resolve_solver("auto", "sequential") == "sqp"
-    assert resolve_solver("sqp", "optimized") == "sqp"
+def test_corners_law_is_at_least_as_good_as_ipopt() -> None:
+    """Law (9) solved on the wrench box's corners reaches IPOPT's local optimum or better."""
+    m = load_mission(CASE2)
+    v = m.build_vehicle()
+    e, dt = m.estimator, m.controller.dt_s
+    R_inv = np.diag(1.0 / np.array([e.accel_noise_var] * 3 + [e.depth_rate_noise_var]))
+    bound = np.asarray(m.controller.perception_wrench_max)
+    laws = {k: PerceptionLaw(v, dt, bound, R_inv, e.forgetting_factor, k) for k in ("corners", "ipopt")}
+
+    def F_next(x, flow, G, tau) -> float:
+        nu_dot, _ = v.model.accelerations(ca.DM(x), ca.DM(tau), ca.DM(flow), ca.DM.zeros(3))
+        nu2 = ca.DM(x[9:12]) + dt * nu_dot[3:6]
+        R_nb = v.model.rotation(ca.DM(x[0:6]))
+        Gn = gramian_step(ca.DM(G), nu2, R_nb[2, :], dt, R_inv, e.forgetting_factor)
+        return float(information_lower_bound(np.asarray(Gn)))
+
+    rng = np.random.default_rng(3)
+    for _ in range(10):
+        x = np.concatenate([[0, 0, 5], rng.normal(0, 0.05, 3), rng.normal(0, 0.2, 3), rng.normal(0, 0.05, 3)])
+        flow = rng.normal(0, 0.5, 3)
+        A = rng.normal(size=(3, 3))
+        G = 1e3 * (A @ A.T + 0.1 * np.eye(3))
+        F = {k: F_next(x, flow, G, law.solve(x, flow, G)[0]) for k, law in laws.items()}
+        assert F["corners"] >= F["ipopt"] * (1 - 1e-4)
+        assert F["corners"] > information_lower_bound(G)  # the law does add information
 
 
 def test_cli_sim_sequential_reports_flow(tmp_path: Path) -> None:

@@ -109,7 +109,8 @@ def test_interrupted_run_keeps_finished_steps(tmp_path: Path) -> None:
 
 
 def test_solver_failure_does_not_stop_the_run(tmp_path: Path) -> None:
-    m = mission("still", **{"controller.solver.max_iter": 1})
+    # SQP stopped after one iteration: every solve that needs more is a failure
+    m = mission("still", **{"controller.solver.name": "sqp", "controller.solver.max_iter": 1})
     out = tmp_path / "fail.h5"
     s = simulate(m, out=out, timeout_s=2.0)
     r = read_run(out)

@@ -38,14 +38,18 @@ __all__ = [
 CONTROLLER_NAMES = ("naive", "kinematic", "oracle", "sequential", "optimized")
 
 
-def build_mpc(mission: Mission, vehicle: Vehicle, dock: HeaveDock, prediction: str, **kw) -> DockingMPC:
-    """The mission's MPC (eq. 10) with the given prediction model.
+def build_mpc(
+    mission: Mission, vehicle: Vehicle, dock: HeaveDock, prediction: str, controller: str, **kw
+) -> DockingMPC:
+    """The mission's MPC (eq. 10) with the given prediction model, for ``controller``.
+
+    ``controller`` (a name in :data:`CONTROLLER_NAMES`) decides what solver ``auto`` means.
 
     The input-rate weight R of the mission is on normalised thrust ``u_i / u_max,i``
     (dimensionless); in newtons it is ``R_i / u_max,i^2``.
     """
     c = mission.controller
-    solver = resolve_solver(c.solver.name, c.type if kw.get("objective_extra") is None else "optimized")
+    solver = resolve_solver(c.solver.name, controller)
     u_max = vehicle.thrust_max
     R_newton = np.asarray(c.weights.R, dtype=float) / u_max**2
     return DockingMPC(
@@ -67,18 +71,26 @@ def build_mpc(mission: Mission, vehicle: Vehicle, dock: HeaveDock, prediction: s
 
 
 def resolve_solver(name: str, controller: str) -> str:
-    """The solver ``auto`` stands for: IPOPT for Optimized FSE-MPC, SQP otherwise.
+    """The solver ``auto`` stands for: real-time iteration, except SQP for Sequential FSE-MPC.
 
-    Cost (10) alone is a sum of squares, so SQP with its Gauss-Newton Hessian solves convex
-    QPs and is the fastest.  Optimized FSE-MPC subtracts ``alpha F``, which is convex in the
-    angular rates (information grows with the square of the rate), so its Hessian is
-    indefinite: qrqp then stalls on non-convex QPs (measured 1-25 s per solve, case 2), and
-    convexifying the Hessian removes exactly the curvature that makes turning pay.  IPOPT's
-    inertia-corrected regularisation handles it (measured all solves converged, case 2).
+    Chosen by docking all six paper cases with every controller x solver (``auvdock bench
+    --case 1 ... --case 6 --solvers rti,sqp,ipopt``; README, Performance): ``rti`` docks
+    exactly the cases IPOPT docks with Naive, Kinematic, Oracle and Optimized FSE-MPC, in
+    a third of the time per step (a fifth for Optimized).  With Sequential FSE-MPC it
+    times out in case 4, which IPOPT and SQP dock (at 41.6 s): the perception wrench,
+    unknown to the MPC, moves the vehicle off the shifted plan every step, and one QP step
+    per control step does not catch up; SQP iterated to convergence does.
+
+    ``sqp`` (sqpmethod + qrqp, Gauss-Newton) is the exact method for the convex problems.
+    For Optimized FSE-MPC it does not converge (the information term is convex in the
+    angular rates, so the Gauss-Newton QPs miss its curvature and full SQP iterations
+    cycle; with the exact Hessian the QPs are indefinite and qrqp stalls): use ``rti``
+    (whose single steps track the optimum over time) or ``ipopt`` (inertia-corrected exact
+    Newton, the reference).
     """
     if name != "auto":
         return name
-    return "ipopt" if controller == "optimized" else "sqp"
+    return "sqp" if controller == "sequential" else "rti"
 
 
 class BaselineMPC:
@@ -90,7 +102,7 @@ class BaselineMPC:
         if name not in self._PREDICTION:
             raise ValueError(f"not a baseline controller: {name!r}")
         self.name = name
-        self.mpc = build_mpc(mission, vehicle, dock, self._PREDICTION[name])
+        self.mpc = build_mpc(mission, vehicle, dock, self._PREDICTION[name], name)
 
     @property
     def needs_true_flow(self) -> bool:

@@ -40,18 +40,20 @@ from 1.5e-3 on it estimates twice as well but keeps turning and does not dock in
 
 from __future__ import annotations
 
+import itertools
 import time
 
 import casadi as ca
 import numpy as np
 
-from ..codegen import compiled_nlpsol
+from ..codegen import compiled_function, compiled_nlpsol
 from ..dock import HeaveDock
 from ..estimator import FlowEstimator, flow_transition, information_lower_bound
 from ..mission import Mission
 from ..vehicle import Vehicle
 from .base import ControlOutput, Measurement
 from .mpc import SigintDeferred
+from .rti import QRQP_OPTIONS
 
 __all__ = ["FSEMPC", "PerceptionLaw", "gramian_step"]
 
@@ -87,15 +89,35 @@ class PerceptionLaw:
     """Active-perception law (9): the bounded wrench that maximises F one step ahead.
 
     F is the smooth bound ``1/tr(G^-1)`` (see :func:`auvdock.estimator.information_lower_bound`).
-    Solved with IPOPT from a deterministic start (the previous solution, else a yaw
-    moment at its bound: at zero rate the gain of F is quadratic in the wrench, so a
-    start at zero would be a stationary point).  A solve that stops at its iteration
-    limit with a finite wrench is used (its value is at least as good as the start's).
+    Two ways to solve it (``method``):
+
+    * ``"corners"`` (default): evaluate F at the 64 corners of the wrench box in one
+      compiled call and take the best.  The information a step adds grows with the square
+      of the angular rate, which is affine in the wrench, so F is (close to) convex in the
+      wrench and its maximum over a box lies at a corner.  Measured over 150 states of a
+      case-2 run: the best corner's objective is within 1e-4 (relative) of IPOPT's local
+      optimum in every state, and better than it by up to 1e-2 where IPOPT stopped at a
+      worse local maximum; 0.1 ms instead of 1.4 ms.
+    * ``"ipopt"``: IPOPT from a deterministic start (the previous solution, else a yaw
+      moment at its bound: at zero rate the gain of F is quadratic in the wrench, so a
+      start at zero would be a stationary point).  A solve that stops at its iteration
+      limit with a finite wrench is used (its value is at least as good as the start's).
     """
 
+    METHODS = ("corners", "sqp", "ipopt")
+
     def __init__(
-        self, vehicle: Vehicle, dt: float, wrench_max: np.ndarray, R_inv: np.ndarray, gamma: float
+        self,
+        vehicle: Vehicle,
+        dt: float,
+        wrench_max: np.ndarray,
+        R_inv: np.ndarray,
+        gamma: float,
+        method: str = "corners",
     ) -> None:
+        if method not in self.METHODS:
+            raise ValueError(f"unknown perception-law method {method!r} (known: {', '.join(self.METHODS)})")
+        self.method = method
         m = vehicle.model
         tau = ca.SX.sym("tau", 6)
         x = ca.SX.sym("x", 12)
@@ -108,17 +130,46 @@ class PerceptionLaw:
         # scale by the current F so the objective is O(1)
         scale = ca.SX.sym("scale")
         obj = -information_lower_bound(G_next) / scale
+        params = ca.vertcat(x, f_ned, g6, scale)
         self.wrench_max = np.asarray(wrench_max, dtype=float)
-        self._solver, self.build = compiled_nlpsol(
-            "perception",
-            "ipopt",
-            {"x": tau, "f": obj, "p": ca.vertcat(x, f_ned, g6, scale)},
-            {
-                "print_time": False,
-                "error_on_fail": False,
-                "ipopt": {"print_level": 0, "sb": "yes", "max_iter": 50, "tol": 1e-8},
-            },
-        )
+        if method == "corners":
+            signs = np.array(list(itertools.product((-1.0, 1.0), repeat=6)))
+            self._corners = signs * self.wrench_max  # (64, 6)
+            f_obj = ca.Function("perception_obj", [tau, params], [obj])
+            n = self._corners.shape[0]
+            values = f_obj.map(n)(ca.DM(self._corners.T), ca.repmat(params, 1, n))
+            fn = ca.Function("perception_corners", [params], [values])
+            self._corner_values, self.build = compiled_function(fn)
+        elif method == "sqp":
+            self._solver, self.build = compiled_nlpsol(
+                "perception",
+                "sqpmethod",
+                {"x": tau, "f": obj, "p": params},
+                {
+                    "print_time": False,
+                    "error_on_fail": False,
+                    "print_header": False,
+                    "print_iteration": False,
+                    "print_status": False,
+                    "qpsol": "qrqp",
+                    "qpsol_options": QRQP_OPTIONS,
+                    "convexify_strategy": "eigen-clip",
+                    "max_iter": 50,
+                    "tol_pr": 1e-8,
+                    "tol_du": 1e-8,
+                },
+            )
+        else:
+            self._solver, self.build = compiled_nlpsol(
+                "perception",
+                "ipopt",
+                {"x": tau, "f": obj, "p": params},
+                {
+                    "print_time": False,
+                    "error_on_fail": False,
+                    "ipopt": {"print_level": 0, "sb": "yes", "max_iter": 50, "tol": 1e-8},
+                },
+            )
         self._B_pinv = np.linalg.pinv(vehicle.allocation)
         self._prev = np.zeros(6)
 
@@ -129,17 +180,18 @@ class PerceptionLaw:
         self, x: np.ndarray, flow_ned: np.ndarray, G: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, bool]:
         """Return (wrench tau* (6,), thrust offset B^+ tau* (8,), success)."""
+        F0 = max(float(information_lower_bound(G)), 1e-12)
+        p = np.concatenate([x, flow_ned, _six(G), [F0]])
+        if self.method == "corners":
+            values = np.asarray(self._corner_values(p)).ravel()
+            ok = bool(np.any(np.isfinite(values)))
+            tau = self._corners[int(np.nanargmin(values))].copy() if ok else np.zeros(6)
+            return tau, self._B_pinv @ tau, ok
         start = self._prev.copy()
         if not np.any(start):
             start[5] = self.wrench_max[5]
-        F0 = max(float(information_lower_bound(G)), 1e-12)
         with SigintDeferred():
-            sol = self._solver(
-                x0=start,
-                lbx=-self.wrench_max,
-                ubx=self.wrench_max,
-                p=np.concatenate([x, flow_ned, _six(G), [F0]]),
-            )
+            sol = self._solver(x0=start, lbx=-self.wrench_max, ubx=self.wrench_max, p=p)
         ok = bool(self._solver.stats().get("success", False))
         tau = np.clip(np.asarray(sol["x"]).ravel(), -self.wrench_max, self.wrench_max)
         if not np.all(np.isfinite(tau)):
@@ -162,7 +214,7 @@ class FSEMPC:
     }
 
     def __init__(self, name: str, mission: Mission, vehicle: Vehicle, dock: HeaveDock) -> None:
-        from . import build_mpc
+        from . import build_mpc, resolve_solver
 
         if name not in ("sequential", "optimized"):
             raise ValueError(f"not an FSE-MPC controller: {name!r}")
@@ -190,8 +242,10 @@ class FSEMPC:
         gamma = e.forgetting_factor
         self.law: PerceptionLaw | None = None
         if name == "sequential":
-            self.law = PerceptionLaw(vehicle, dt, np.asarray(c.perception_wrench_max), R_inv, gamma)
-            self.mpc = build_mpc(mission, vehicle, dock, "full")
+            self.law = PerceptionLaw(
+                vehicle, dt, np.asarray(c.perception_wrench_max), R_inv, gamma, c.perception_solver
+            )
+            self.mpc = build_mpc(mission, vehicle, dock, "full", name)
         else:
             alpha = float(c.alpha)
 
@@ -206,7 +260,14 @@ class FSEMPC:
                 return -alpha * J
 
             self.mpc = build_mpc(
-                mission, vehicle, dock, "full", objective_extra=info_term, extra_params=10, extra_hessian=True
+                mission,
+                vehicle,
+                dock,
+                "full",
+                name,
+                objective_extra=info_term,
+                extra_params=10,
+                extra_hessian=resolve_solver(c.solver.name, "optimized") == "ipopt",
             )
 
     def reset(self) -> None:

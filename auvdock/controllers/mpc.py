@@ -45,6 +45,8 @@ from ..dock import HeaveDock
 from ..results import STATUS_FAILED, STATUS_FALLBACK_ZERO, STATUS_NAMES, STATUS_NOT_CONVERGED, STATUS_OK
 from ..vehicle import Vehicle
 from ..vehicle.model import rk4
+from .rti import QRQP_OPTIONS as _QRQP_OPTIONS
+from .rti import RealTimeIteration
 
 __all__ = [
     "DockingMPC",
@@ -54,9 +56,13 @@ __all__ = [
     "STATUS_FAILED",
     "STATUS_FALLBACK_ZERO",
     "STATUS_NAMES",
+    "SOLVERS",
 ]
 
 Prediction = Literal["naive", "kinematic", "full"]
+
+#: Solvers of the MPC problem (``controller.solver.name``, besides ``auto``).
+SOLVERS = ("ipopt", "sqp", "rti")
 
 
 @dataclass
@@ -113,8 +119,10 @@ class DockingMPC:
         Bound on |nu_2| (rad/s).
     prediction : {"naive", "kinematic", "full"}
         Prediction model, see the module docstring.
-    solver : {"ipopt", "sqp"}
-        IPOPT (interior point) or CasADi's sqpmethod with the qrqp QP solver.
+    solver : {"ipopt", "sqp", "rti"}
+        IPOPT (interior point), CasADi's sqpmethod with the qrqp QP solver (iterated to
+        convergence), or real-time iteration (one Gauss-Newton QP step per solve from the
+        shifted previous solution, :mod:`auvdock.controllers.rti`).
     max_iter, tol : int, float
         Solver iteration limit and tolerance.
     hessian : {"gauss-newton", "exact"}
@@ -170,6 +178,7 @@ class DockingMPC:
         self.n_extra = int(extra_params)
         rot = vehicle.model.function("rotation")
         self._R = lambda angles: np.asarray(rot(angles))  # R(Theta), {b} -> {n}
+        self._rot_map = rot.map(self.N + 1)
         self._extra_hessian = bool(extra_hessian)
         self._build(objective_extra, solver, max_iter, tol, hessian)
         self.reset()
@@ -252,21 +261,22 @@ class DockingMPC:
         self._nw = w.shape[0]
         self._ng = nx * N
         opts_common: dict = {"expand": True, "print_time": False, "error_on_fail": False}
+        H_gn = None
         if hessian == "gauss-newton":
+            Jr = ca.jacobian(r, w)
+            H_gn = 2 * ca.mtimes(Jr.T, ca.mtimes(ca.diag(W), Jr))
+            if objective_extra is not None and self._extra_hessian:
+                H_gn = H_gn + ca.hessian(J_extra, w)[0]
+        elif hessian != "exact":
+            raise ValueError(f"unknown hessian {hessian!r} (known: gauss-newton, exact)")
+        if H_gn is not None and solver in ("ipopt", "sqp"):
             lam_f = ca.SX.sym("lam_f")
             lam_g = ca.SX.sym("lam_g", self._ng)
-            Jr = ca.jacobian(r, w)
-            H = 2 * ca.mtimes(Jr.T, ca.mtimes(ca.diag(W), Jr))
-            if objective_extra is not None and self._extra_hessian:
-                H = H + ca.hessian(J_extra, w)[0]
-            H = lam_f * H
-            if solver == "ipopt":
-                H = ca.triu(H)
+            H = lam_f * (ca.triu(H_gn) if solver == "ipopt" else H_gn)
             opts_common["hess_lag"] = ca.Function(
                 "nlp_hess_l", [w, params, lam_f, lam_g], [H], ["x", "p", "lam_f", "lam_g"], ["hess_gamma_x_x"]
             )
-        elif hessian != "exact":
-            raise ValueError(f"unknown hessian {hessian!r} (known: gauss-newton, exact)")
+        self._rti = None
         if solver == "ipopt":
             opts = dict(opts_common)
             opts["ipopt"] = {
@@ -293,19 +303,19 @@ class DockingMPC:
                     "tol_du": float(tol) * 100,
                     "hessian_approximation": "exact",
                     "qpsol": "qrqp",
-                    "qpsol_options": {
-                        "print_iter": False,
-                        "print_header": False,
-                        "print_info": False,
-                        "error_on_fail": False,
-                    },
+                    "qpsol_options": _QRQP_OPTIONS,
                 }
             )
             if hessian == "exact":
                 opts["convexify_strategy"] = "regularize"
             self._solver, self.build = compiled_nlpsol("mpc", "sqpmethod", nlp, opts)
+        elif solver == "rti":
+            if H_gn is None:
+                raise ValueError("solver rti needs the gauss-newton Hessian")
+            self._rti = RealTimeIteration(w, params, J, ca.vertcat(*g), H_gn, max_iter=int(max_iter), tol=tol)
+            self._solver, self.build = None, self._rti.build
         else:
-            raise ValueError(f"unknown solver {solver!r} (known: ipopt, sqp)")
+            raise ValueError(f"unknown solver {solver!r} (known: {', '.join(SOLVERS)})")
 
         # index helpers into w
         self._ix = np.arange(nx * (N + 1)).reshape(N + 1, nx)
@@ -396,29 +406,37 @@ class DockingMPC:
             args["lam_g0"] = self._lam_g
 
         t0 = time.perf_counter()
+        lam_x = lam_g = None
         try:
             with SigintDeferred():
-                sol = self._solver(**args)
-            stats = self._solver.stats()
-            ok = bool(stats.get("success", False))
-            ret = str(stats.get("return_status", ""))
-            iters = int(stats.get("iter_count", -1))
-            w_opt = np.asarray(sol["x"]).ravel()
+                if self._rti is not None:
+                    w_opt, ok, ret, iters, fval = self._rti.solve(
+                        w0, p, lbx, ubx, 0.0, 0.0, cold=self._w_prev is None
+                    )
+                else:
+                    sol = self._solver(**args)
+                    stats = self._solver.stats()
+                    ok = bool(stats.get("success", False))
+                    ret = str(stats.get("return_status", ""))
+                    iters = int(stats.get("iter_count", -1))
+                    w_opt = np.asarray(sol["x"]).ravel()
+                    fval = float(sol["f"])
+                    lam_x = np.asarray(sol["lam_x"]).ravel()
+                    lam_g = np.asarray(sol["lam_g"]).ravel()
             finite = bool(np.all(np.isfinite(w_opt)))
         except RuntimeError as e:  # CasADi evaluation errors
-            ok, ret, iters, finite, w_opt, sol = False, f"error: {e}", -1, False, None, None
+            ok, ret, iters, finite, w_opt, fval = False, f"error: {e}", -1, False, None, math.nan
         solve_time = time.perf_counter() - t0
 
         if ok and finite:
             self._w_prev = w_opt
-            self._lam_x = np.asarray(sol["lam_x"]).ravel()
-            self._lam_g = np.asarray(sol["lam_g"]).ravel()
+            self._lam_x, self._lam_g = lam_x, lam_g
             self._plan_u = w_opt[self._iu] + u_off
             self._plan_x = self._from_model_states(w_opt[self._ix], flow)
             self._plan_age = 0
             thrust = np.clip(self._plan_u[0], self.u_min, self.u_max)
             return MPCResult(
-                thrust, STATUS_OK, solve_time, iters, self._plan_x, self._plan_u, float(sol["f"]), ret
+                thrust, STATUS_OK, solve_time, iters, self._plan_x, self._plan_u, fval, ret
             )
 
         # fallback: next input of the last good plan, else zero thrust
@@ -442,8 +460,9 @@ class DockingMPC:
         if self.prediction != "kinematic":
             return Xm.copy()
         X = Xm.copy()
-        for k in range(X.shape[0]):
-            X[k, 6:9] += self._R(X[k, 3:6]).T @ flow_ned
+        # R(Theta_k)^T flow for every node in one call (columns: R_k, stacked 3 x 3(N+1))
+        R_all = np.asarray(self._rot_map(Xm[:, 3:6].T)).reshape(3, -1, 3)  # [i, k, j] = R_k[i, j]
+        X[:, 6:9] += np.einsum("ikj,i->kj", R_all, flow_ned)
         return X
 
 

@@ -1,0 +1,112 @@
+"""Real-time iteration (RTI): one convex QP per control step instead of a converged NLP.
+
+Diehl, Bock and Schloeder (2005), "A real-time iteration scheme for nonlinear optimization
+in optimal feedback control", SIAM J. Control Optim. 43(5).  Each control step takes ONE
+full Gauss-Newton SQP step from the previous solution shifted by a step (with the
+measured state put in its first node), instead of iterating to convergence: since the
+problem changes little between steps, the iterates track the moving optimum, and the
+step costs one evaluation of the derivatives and one QP.
+
+The QP at the linearisation point ``w_bar`` is, for ``min f(w) s.t. g(w) = 0,
+lbx <= w <= ubx``::
+
+    min_dw  1/2 dw' H dw + grad f(w_bar)' dw
+    s.t.    lbg - g(w_bar) <= J_g(w_bar) dw <= ubg - g(w_bar),   lbx - w_bar <= dw <= ubx - w_bar
+
+with ``H`` the Gauss-Newton matrix of the cost (positive semidefinite, no constraint
+curvature, so no multipliers are needed).  Its data (H, gradient, constraint Jacobian and
+residual) come from one compiled, cached CasADi function; the QP is solved by qrqp.
+
+The first solve of a run has no previous solution to start from, so it iterates the same
+step until it converges (step infinity norm below ``tol``) or ``max_iter`` steps (at most
+10: with the Optimized FSE-MPC's information term, whose curvature the Gauss-Newton matrix
+leaves out, full steps may cycle instead of converging, and a first step of 100 QPs would
+take 0.4 s; the following steps go on improving the plan anyway).
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+from ..codegen import compiled_function
+
+__all__ = ["RealTimeIteration", "QRQP_OPTIONS", "COLD_START_MAX_ITER"]
+
+#: Most steps the first solve of a run takes.
+COLD_START_MAX_ITER = 10
+
+QRQP_OPTIONS = {"print_iter": False, "print_header": False, "print_info": False, "error_on_fail": False}
+
+
+class RealTimeIteration:
+    """One Gauss-Newton SQP step per call, for ``min f(w, p) s.t. g(w, p) = 0`` and bounds.
+
+    Parameters
+    ----------
+    w, p : SX column vectors
+        Decision variables and parameters.
+    f, g : SX
+        Objective (scalar) and equality constraints (column).
+    H : SX
+        Positive semidefinite Hessian approximation of ``f`` in ``w`` (Gauss-Newton).
+    max_iter : int
+        Steps of the first (cold-start) solve at most (capped at :data:`COLD_START_MAX_ITER`).
+    tol : float
+        Step size (infinity norm) at which the cold start stops.
+    """
+
+    def __init__(
+        self, w: ca.SX, p: ca.SX, f: ca.SX, g: ca.SX, H: ca.SX, *, max_iter: int = 20, tol: float = 1e-6
+    ) -> None:
+        grad = ca.gradient(f, w)
+        Jg = ca.jacobian(g, w)
+        fn = ca.Function("rti_qp_data", [w, p], [H, grad, Jg, g, f], ["w", "p"], ["H", "grad", "A", "g", "f"])
+        self._data, self.build = compiled_function(fn)
+        self._qp = ca.conic("rti_qp", "qrqp", {"h": H.sparsity(), "a": Jg.sparsity()}, QRQP_OPTIONS)
+        self.max_iter = min(int(max_iter), COLD_START_MAX_ITER)
+        self.tol = float(tol)
+
+    def step(
+        self, w_bar: np.ndarray, p: np.ndarray, lbx: np.ndarray, ubx: np.ndarray, lbg: float, ubg: float
+    ) -> tuple[np.ndarray, bool, str, float, float]:
+        """One QP step from ``w_bar``.
+
+        Returns ``(w_new, success, return_status, model cost, step infinity norm)``; the
+        model cost is the QP's prediction ``f(w_bar) + q(dw)`` of the objective at ``w_new``.
+        """
+        H, grad, A, gval, f0 = self._data(w_bar, p)
+        gv = np.asarray(gval).ravel()
+        sol = self._qp(h=H, g=grad, a=A, lba=lbg - gv, uba=ubg - gv, lbx=lbx - w_bar, ubx=ubx - w_bar)
+        stats = self._qp.stats()
+        dw = np.asarray(sol["x"]).ravel()
+        cost = float(f0) + float(sol["cost"])
+        return (
+            w_bar + dw,
+            bool(stats.get("success", False)),
+            str(stats.get("return_status", "")),
+            cost,
+            float(np.max(np.abs(dw)) if dw.size else 0.0),
+        )
+
+    def solve(
+        self,
+        w_bar: np.ndarray,
+        p: np.ndarray,
+        lbx: np.ndarray,
+        ubx: np.ndarray,
+        lbg: float,
+        ubg: float,
+        *,
+        cold: bool,
+    ) -> tuple[np.ndarray, bool, str, int, float]:
+        """One step (``cold=False``), or steps until converged (``cold=True``).
+
+        Returns ``(w, success, return_status, steps, model cost)``.
+        """
+        w, ok, ret, cost, size = self.step(w_bar, p, lbx, ubx, lbg, ubg)
+        n = 1
+        while cold and ok and size > self.tol and n < self.max_iter:
+            w, ok, ret, cost, size = self.step(w, p, lbx, ubx, lbg, ubg)
+            n += 1
+        return w, ok, ret, n, cost
