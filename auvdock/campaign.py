@@ -691,9 +691,10 @@ _WHY = {
         "well as the Oracle. The paper does not say how its K-MPC obtained nu_r."
     ),
     "sequential": (
-        "The MPC undoes the bounded perception wrench (0.1 N m, the authors' bound) each step, so "
-        "the vehicle stops turning, the estimate stalls a few cm/s off, and an MPC without integral "
-        "action holds an offset larger than the 5 cm tolerance in currents of 1 m/s and more."
+        "The MPC, which does not know the perception wrench (0.1 N / N m, the authors' bound), "
+        "undoes it each step, so the estimate can stall a few cm/s off (3.6 cm/s in case 3), and an "
+        "MPC without integral action then holds an offset larger than the 5 cm tolerance in a strong "
+        "current against the approach."
     ),
     "optimized": (
         "In the strongest current (2 m/s) a residual 1 % estimate error leaves the vehicle about "
