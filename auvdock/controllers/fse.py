@@ -6,7 +6,7 @@ driven by the ESTIMATED flow.
 
 * **Sequential FSE-MPC**: each step first solves the active-perception law (9),
   ``tau* = argmax_tau lambda_min(G_(k+1)(tau))`` over a bounded body wrench, one step
-  ahead, as a small CasADi NLP (deterministic start, no random restarts); ``tau*`` is
+  ahead (:class:`PerceptionLaw`: best corner of the wrench box by default); ``tau*`` is
   mapped to thrusts with the allocation's pseudo-inverse and added to the MPC's input
   (alpha = 0) before it is applied.  The MPC does not see the offset: an offset known to
   the MPC is simply cancelled by it (its optimum shifts by minus the offset), which is
@@ -19,9 +19,11 @@ driven by the ESTIMATED flow.
   restoring moments hold near zero, so it is taken at the measured attitude for the whole
   horizon: this keeps the term a function of the 3N predicted rates alone (its Hessian has
   174k instead of 274k operations).  The term is convex in the rates (information grows
-  with their square), so the problem is non-convex: it is solved with IPOPT (solver
-  ``auto``), whose inertia correction copes with the negative curvature; SQP with qrqp
-  stalls on the indefinite QPs (1-25 s per solve, measured).
+  with their square), so the problem is non-convex.  With solver ``rti`` (``auto``) the
+  term enters each QP through its gradient only (the Gauss-Newton matrix of cost (10)
+  keeps the QP convex) and the one step per control period tracks the optimum over time;
+  with ``ipopt`` its exact Hessian is used (inertia correction copes with the negative
+  curvature).  Iterated SQP with qrqp does not converge here (README, Performance).
   In the optimiser ``F_k`` is the smooth lower bound
   :func:`auvdock.estimator.information_lower_bound` ``1/tr(G_k^-1)``, within a factor 3 of
   ``lambda_min(G_k)`` and tight when the smallest eigenvalue is separated (the docstring
@@ -33,9 +35,9 @@ axis (``sigma_a^2 = 2.029e-5 (m/s^2)^2``), so yawing at 0.1 rad/s for the 0.5 s 
 raises F by about 5e3; alpha = 1e-3 (the default) makes that worth about 5 units of cost
 (10), the size of the tracking cost at a few decimetres of error.  The paper's
 alpha = 1e-15 belongs to its own (unstated) scaling of G.  ``benchmarks/alpha_sweep.py``
-measures the trade-off on case 2 (README): below 5e-4 the vehicle does not turn enough to
+measures the trade-off on case 2 (README): below 1e-3 the vehicle does not turn enough to
 learn the current and, predicting with a wrong flow, never closes the last centimetres;
-from 1.5e-3 on it estimates twice as well but keeps turning and does not dock in 75 s.
+from 2e-3 on it estimates twice as well but keeps turning and does not dock in 75 s.
 """
 
 from __future__ import annotations
