@@ -101,20 +101,31 @@ class TrackedDock:
     controllers (``position``, ``velocity``, ``trajectory``, ``reference_state``,
     ``heading_rad``).
 
+    With a ``process_noise`` and measurements that carry a covariance (the camera's), the
+    blend is a Kalman filter on the offset: a random walk of ``process_noise`` m/sqrt(s)
+    about the heave model, each measurement weighed by its covariance.
+
     Parameters
     ----------
     model : HeaveDock
         The mission's dock motion (its mean position is the first guess).
     gain : float
-        Weight of a new measurement, in (0, 1] (1: jump to it).
+        Weight of a new measurement without covariance, in (0, 1] (1: jump to it).
+    process_noise : float, optional
+        Random-walk intensity of the offset, m/sqrt(s) (Kalman mode).
     """
 
-    def __init__(self, model: HeaveDock, gain: float = 0.3) -> None:
+    def __init__(self, model: HeaveDock, gain: float = 0.3, process_noise: float | None = None) -> None:
         if not 0.0 < gain <= 1.0:
             raise ValueError(f"gain must be in (0, 1], got {gain}")
+        if process_noise is not None and process_noise <= 0:
+            raise ValueError(f"process_noise must be positive, got {process_noise}")
         self.model = model
         self.gain = float(gain)
+        self.process_noise = process_noise
         self.offset = np.zeros(3)
+        self.offset_covariance = np.eye(3) * 1e6  # nothing known before the first measurement
+        self._t_cov = 0.0
         self.measurements = 0
 
     @property
@@ -139,8 +150,24 @@ class TrackedDock:
         out[..., 0:3] += self.offset
         return out
 
-    def update(self, t: float, measured_position_ned: np.ndarray) -> None:
-        """Blend in one measured dock position (NED, m) taken at time t (s)."""
+    def update(
+        self, t: float, measured_position_ned: np.ndarray, covariance: np.ndarray | None = None
+    ) -> None:
+        """Blend in one measured dock position (NED, m) taken at time t (s).
+
+        ``covariance`` (3, 3) of the measurement in m^2: a Kalman update when the dock has
+        a ``process_noise``; otherwise the fixed-gain blend (the first measurement is taken
+        as it is).
+        """
         err = np.asarray(measured_position_ned, dtype=float) - self.position(t)
-        self.offset = self.offset + (1.0 if self.measurements == 0 else self.gain) * err
+        if covariance is not None and self.process_noise is not None:
+            dt = max(0.0, t - self._t_cov)
+            P = self.offset_covariance + np.eye(3) * self.process_noise**2 * dt
+            S = P + np.asarray(covariance, dtype=float)
+            K = P @ np.linalg.inv(S)
+            self.offset = self.offset + K @ err
+            self.offset_covariance = (np.eye(3) - K) @ P
+            self._t_cov = t
+        else:
+            self.offset = self.offset + (1.0 if self.measurements == 0 else self.gain) * err
         self.measurements += 1

@@ -35,6 +35,7 @@ The controllers that need the flow (Kinematic, Oracle) are given the mission's f
 
 from __future__ import annotations
 
+import collections
 import json
 import math
 import time
@@ -51,10 +52,22 @@ from .dock import HeaveDock, TrackedDock
 from .hardware.ardusub import NEUTRAL_CHANNELS, channels_for_thrust
 from .hardware.link import LinkError, MavlinkLink
 from .mission import Mission
-from .results import STATUS_NAMES, RunWriter
+from .results import STATUS_FALLBACK_ZERO, STATUS_NAMES, RunWriter
 from .simulation import run_outcome
 
-__all__ = ["FlySession", "FlyResult", "FlyAbortError", "TELEMETRY_MESSAGES"]
+__all__ = ["FlySession", "FlyResult", "FlyAbortError", "TELEMETRY_MESSAGES", "CAMERA_STATES"]
+
+#: ``camera_state`` codes recorded with dock.source: camera (index into this tuple).
+CAMERA_STATES = ("searching", "tracking", "holding", "lost")
+#: Per-step series recorded with dock.source: camera (name -> per-row shape).
+CAMERA_SERIES = {
+    "camera_fix_age_s": (),
+    "camera_state": (),
+    "camera_markers": (),
+    "camera_latency_s": (),
+    "camera_dock_position_m": (3,),
+    "camera_fixes": (),
+}
 
 G = 9.80665
 TELEMETRY_MESSAGES = ("ATTITUDE", "LOCAL_POSITION_NED", "SCALED_IMU2", "SCALED_PRESSURE2", "SERVO_OUTPUT_RAW")
@@ -128,13 +141,23 @@ class FlySession:
         self.connect_timeout_s = connect_timeout_s
         self.vehicle = mission.build_vehicle()
         self.dock: HeaveDock | TrackedDock = mission.build_dock()
+        self._model_dock = self.dock
         if mission.dock.source == "mavlink":
             self.dock = TrackedDock(self.dock)
+        self.tracker = None
+        self.monitor = None
+        self._camera_source = None
+        self._pose_hist: collections.deque[tuple[float, float, np.ndarray]] = collections.deque(maxlen=400)
+        if mission.dock.source == "camera":
+            self.dock = TrackedDock(self.dock, process_noise=mission.camera.process_noise_m_s)
+            mission.build_camera()  # a missing or bad camera file is a mission error, before connecting
         self.flow = mission.build_flow()
         self.autopilot = Autopilot(mission, self.vehicle, self.dock, controller)
         self.dt = mission.controller.dt_s
         self.events: list[tuple[float, str]] = []
         self._t0 = time.monotonic()
+        self._last_fix = None
+        self._camera_error_reported = False
         self._we_armed = False
         self._last_target: int | None = None
         rot = self.vehicle.model.function("rotation")
@@ -142,6 +165,81 @@ class FlySession:
         self.link.on_event = self._event
 
     # ------------------------------------------------------------------------------------
+    def _build_camera(self) -> None:
+        """The frame source, the detection thread and the lost-tracking monitor (not started)."""
+        from .camera.model import CameraMount
+        from .camera.tracker import DockTracker, SyntheticCamera, TrackingMonitor
+
+        c = self.mission.camera
+        cam = self.mission.build_camera()
+        layout = self.mission.dock.marker_layout()
+        mount = CameraMount(tuple(c.mount.position_body_m), tuple(c.mount.rpy_deg))
+        if c.source == "synthetic":
+            sy = c.synthetic
+            self._camera_source = SyntheticCamera(
+                cam,
+                layout,
+                mount,
+                self._model_dock,
+                self._latest_pose,
+                rate_hz=sy.rate_hz,
+                noise_std=sy.noise_std,
+                blur_px=sy.blur_px,
+                offset_ned_m=sy.dock_offset_m,
+                dropout_s=sy.dropout_s,
+                seed=self.mission.seed,
+            )
+        else:
+            from .camera.video import open_source
+
+            try:
+                self._camera_source = open_source(c.source)
+            except (OSError, ValueError, RuntimeError) as e:
+                raise FlyAbortError(f"camera: {e}") from None
+        self.tracker = DockTracker(
+            self._camera_source, cam, layout, mount, self._pose_at, max_reprojection_px=c.max_reprojection_px
+        )
+        self.monitor = TrackingMonitor(c.hold_s, c.abort_s)
+
+    def _latest_pose(self) -> tuple[float, np.ndarray] | None:
+        """The newest (mission time, pose (6,)) the control loop saw, or None."""
+        if not self._pose_hist:
+            return None
+        _, t, x = self._pose_hist[-1]
+        return t, x[0:6]
+
+    def _pose_at(self, t_mono: float) -> tuple[float, np.ndarray] | None:
+        """(mission time, pose) of the control step nearest to a ``time.monotonic()`` instant."""
+        hist = list(self._pose_hist)
+        if not hist:
+            return None
+        best = min(hist, key=lambda h: abs(h[0] - t_mono))
+        return best[1], best[2][0:6]
+
+    def _camera_step(self, t: float) -> tuple[str, dict[str, np.ndarray]]:
+        """Feed new camera fixes to the dock filter; the tracking state and series to record."""
+        fixes = self.tracker.fixes()
+        for f in fixes:
+            self.dock.update(f.t, f.position_ned_m, f.covariance_ned_m2)
+        if fixes:
+            self._last_fix = fixes[-1]
+        state, event = self.monitor.update(t, fixes[-1].t if fixes else None)
+        if event is not None:
+            self._event(event)
+        if self.tracker.error is not None and not self._camera_error_reported:
+            self._camera_error_reported = True
+            self._event(f"camera: {self.tracker.error}")
+        last = self._last_fix
+        series = {
+            "camera_fix_age_s": np.asarray(self.monitor.age(t)),
+            "camera_state": np.asarray(float(CAMERA_STATES.index(state))),
+            "camera_markers": np.asarray(float(last.markers if last else 0)),
+            "camera_latency_s": np.asarray(last.latency_s if last else np.nan),
+            "camera_dock_position_m": last.position_ned_m if last else np.full(3, np.nan),
+            "camera_fixes": np.asarray(float(len(fixes))),
+        }
+        return state, series
+
     def _event(self, text: str) -> None:
         self.events.append((time.monotonic() - self._t0, text))
 
@@ -273,6 +371,11 @@ class FlySession:
                 self.link.send_neutral()
             self._wait_telemetry()
             self._set_frame()
+            if m.dock.source == "camera":
+                self._build_camera()
+                self._pose_hist.append((time.monotonic(), 0.0, self._state()))
+                self.tracker.start()
+                self._event(f"camera: {self._camera_source.description}")
             if self.arm_vehicle:
                 self.link.send_neutral()
                 self.link.set_mode("MANUAL")
@@ -297,6 +400,7 @@ class FlySession:
                     "telemetry_age_s": (2,),
                     "imu_specific_force_m_s2": (3,),
                     "armed": (),
+                    **(CAMERA_SERIES if self.tracker is not None else {}),
                 },
                 attrs={
                     "tolerance_m": m.docking.tolerance_m,
@@ -331,7 +435,19 @@ class FlySession:
                 fence = self._geofence(x)
                 if fence is not None:
                     raise FlyAbortError(fence)
-                if isinstance(self.dock, TrackedDock):
+                self._pose_hist.append((time.monotonic(), t, x))
+                cam_series: dict[str, np.ndarray] = {}
+                if self.tracker is not None:
+                    cam_state, cam_series = self._camera_step(t)
+                    if cam_state == "lost":
+                        raise FlyAbortError(self.events[-1][1] if self.events else "camera: dock lost")
+                    if cam_state != "tracking":
+                        # no dock to steer to: neutral thrust and hold, recorded
+                        self.link.send_neutral()
+                        self._append_idle(writer, t, x, cam_series)
+                        k += 1
+                        continue
+                if m.dock.source == "mavlink":
                     age_t = self._landing_target(t, x)
                     if self.dock.measurements == 0 and t > m.fly.stale_abort_s:
                         raise FlyAbortError(
@@ -375,6 +491,7 @@ class FlySession:
                     imu_specific_force_m_s2=f_b,
                     armed=np.asarray(float(self.link.armed)),
                     **series,
+                    **cam_series,
                 )
                 states.append(x)
                 distances.append(dist)
@@ -420,8 +537,35 @@ class FlySession:
             reason, message, outcome, self.out if writer is not None else None, list(self.events)
         )
 
+    def _append_idle(self, writer: RunWriter, t: float, x: np.ndarray, cam_series: dict) -> None:
+        """Record a step flown with neutral thrust (no dock to steer to)."""
+        _, age_a = self.link.latest("ATTITUDE")
+        _, age_p = self.link.latest("LOCAL_POSITION_NED")
+        p_dock = self.dock.position(t)
+        series = {name: np.full(shape, np.nan) for name, shape in self.autopilot.extra_series.items()}
+        writer.append(
+            time_s=t,
+            state=x,
+            thrust_N=np.zeros(8),
+            wrench=np.zeros(6),
+            flow_ned_m_s=self.flow.velocity(x[0:3], t),
+            dock_position_m=p_dock,
+            dock_velocity_m_s=self.dock.velocity(t),
+            distance_m=float(np.linalg.norm(x[0:3] - p_dock)),
+            solve_time_s=0.0,
+            solver_status=STATUS_FALLBACK_ZERO,
+            channels_us=NEUTRAL_CHANNELS,
+            telemetry_age_s=np.array([age_a, age_p]),
+            imu_specific_force_m_s2=np.full(3, np.nan),
+            armed=np.asarray(float(self.link.armed)),
+            **series,
+            **cam_series,
+        )
+
     def _end(self) -> None:
         """Neutral, release the overrides, disarm if we armed, close the link.  Never raises."""
+        if self.tracker is not None:
+            self.tracker.stop()
         for action in (self.link.send_neutral, self.link.release_overrides):
             try:
                 action()

@@ -210,14 +210,38 @@ class DockSpec(_Strict):
     position_ned_m: Vec3 = Field(default=[2.0, 3.0, 5.0], description="mean position (north, east, down), m")
     heading_deg: float = Field(default=0.0, description="target heading of the docked vehicle, degrees")
     heave: HeaveSpec = Field(default_factory=HeaveSpec)
-    source: Literal["model", "mavlink"] = Field(
+    source: Literal["model", "mavlink", "camera"] = Field(
         default="model",
         description=(
             "fly: where the dock's position comes from: model (this motion, placed relative to the "
-            "vehicle's pose at the start as the start state is) or mavlink (LANDING_TARGET messages "
-            "from a positioning or vision system re-anchor this motion)"
+            "vehicle's pose at the start as the start state is), mavlink (LANDING_TARGET messages "
+            "from a positioning or vision system re-anchor this motion) or camera (the fiducial "
+            "markers of dock.markers seen by the camera of the camera section re-anchor it)"
         ),
     )
+    markers: dict[str, Any] | None = Field(
+        default=None,
+        description=(
+            "fiducial markers on the dock's back panel: {dictionary: apriltag_36h11 | aruco_4x4_50 | "
+            "..., markers: [{id, size_m, position_dock_m, rpy_deg}]} in the dock frame (origin at the "
+            "docking point, x along the docked heading); omitted: auvdock.camera.default_layout()"
+        ),
+    )
+
+    @field_validator("markers")
+    @classmethod
+    def _valid_layout(cls, v: dict[str, Any] | None) -> dict[str, Any] | None:
+        if v is None:
+            return v
+        from .camera.layout import MarkerLayout
+
+        return MarkerLayout.from_dict(v).to_dict()
+
+    def marker_layout(self):
+        """The :class:`auvdock.camera.MarkerLayout` of the dock (the default one if not given)."""
+        from .camera.layout import MarkerLayout, default_layout
+
+        return default_layout() if self.markers is None else MarkerLayout.from_dict(self.markers)
 
     def build(self) -> HeaveDock:
         """The dock this spec describes."""
@@ -369,6 +393,72 @@ class FlySpec(_Strict):
     geofence: GeofenceSpec = Field(default_factory=GeofenceSpec)
 
 
+class CameraMountSpec(_Strict):
+    """Where the camera sits on the vehicle."""
+
+    position_body_m: Vec3 = Field(default=[0.2, 0.0, 0.0], description="camera centre in {b}, m")
+    rpy_deg: Vec3 = Field(
+        default=[0.0, 0.0, 0.0],
+        description="rotation from the forward-looking mount (optical axis = body x), deg (roll, pitch, yaw)",
+    )
+
+
+class SyntheticCameraSpec(_Strict):
+    """camera.source: synthetic -- rendered views of the dock's markers (rehearsal, tests)."""
+
+    rate_hz: PosFloat = Field(default=15.0, description="frame rate, Hz")
+    noise_std: NonNegFloat = Field(default=2.0, description="additive image noise, grey levels")
+    blur_px: NonNegFloat = Field(default=0.5, description="Gaussian blur sigma, px")
+    dock_offset_m: Vec3 = Field(
+        default=[0.0, 0.0, 0.0],
+        description="where the rendered dock really is relative to the mission's dock, NED m",
+    )
+    dropout_s: list[Annotated[list[NonNegFloat], _fixed_len(2)]] = Field(
+        default_factory=list,
+        description="[start, end] mission times (s) during which no marker is visible (rehearse losses)",
+    )
+
+
+class CameraSpec(_Strict):
+    """fly with dock.source: camera -- the camera, its calibration and lost-tracking limits."""
+
+    source: str = Field(
+        default="udp:5600",
+        description=(
+            "udp:PORT (RTP/H.264 from BlueOS), /dev/videoN or v4l2:N, a video file, a folder of "
+            "images, or synthetic"
+        ),
+    )
+    calibration: str | None = Field(
+        default=None,
+        description=(
+            "camera file from auvdock calibrate (relative to the mission); required unless the "
+            "source is synthetic (then an ideal 640x480, 80 deg camera)"
+        ),
+    )
+    mount: CameraMountSpec = Field(default_factory=CameraMountSpec)
+    synthetic: SyntheticCameraSpec = Field(default_factory=SyntheticCameraSpec)
+    max_reprojection_px: PosFloat = Field(
+        default=3.0, description="a marker whose corners miss the fused pose by more is rejected, px"
+    )
+    hold_s: PosFloat = Field(
+        default=1.0, description="dock lost: keep flying on the filter's prediction this long, s"
+    )
+    abort_s: PosFloat = Field(
+        default=5.0, description="dock lost this long (neutral thrust after hold_s): abort, s"
+    )
+    process_noise_m_s: PosFloat = Field(
+        default=0.05,
+        description="random walk of the dock position about its heave model (tracking filter), m/sqrt(s)",
+    )
+
+    @model_validator(mode="after")
+    def _hold_before_abort(self) -> CameraSpec:
+        if self.abort_s <= self.hold_s:
+            raise ValueError(f"abort_s ({self.abort_s:g}) must be larger than hold_s ({self.hold_s:g})")
+        return self
+
+
 class OutputSpec(_Strict):
     """Where results go."""
 
@@ -390,6 +480,7 @@ class Mission(_Strict):
     docking: DockingSpec = Field(default_factory=DockingSpec)
     simulation: SimulationSpec = Field(default_factory=SimulationSpec)
     fly: FlySpec = Field(default_factory=FlySpec)
+    camera: CameraSpec = Field(default_factory=CameraSpec)
     seed: Annotated[int, Field(ge=0)] = Field(default=0, description="random seed (sensor noise)")
     output: OutputSpec = Field(default_factory=OutputSpec)
 
@@ -419,6 +510,34 @@ class Mission(_Strict):
         else:
             target = v.preset or "bluerov2_heavy"
         return load_vehicle(target, v.overrides or None, v.thruster_voltage_V)
+
+    def build_camera(self):
+        """The camera model (:class:`auvdock.camera.CameraModel`) of ``camera.calibration``.
+
+        Raises
+        ------
+        MissionError
+            No calibration file for a real camera, or a file that does not read.
+        """
+        from .camera.model import CameraModel, load_camera
+
+        c = self.camera
+        where = self._source or "mission"
+        if c.calibration is None:
+            if c.source == "synthetic":
+                return CameraModel.ideal()
+            raise MissionError(
+                where,
+                "camera.calibration",
+                f"a camera file is required for source {c.source!r} (make one with auvdock calibrate)",
+            )
+        p = Path(c.calibration)
+        if not p.is_absolute() and self._source is not None:
+            p = self._source.parent / p
+        try:
+            return load_camera(p)
+        except (OSError, ValueError) as e:
+            raise MissionError(where, "camera.calibration", str(e)) from None
 
     def build_flow(self) -> FlowField:
         """The true flow field."""

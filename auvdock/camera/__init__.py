@@ -1,0 +1,96 @@
+"""Fiducial-marker dock tracking from the vehicle's forward camera.
+
+Modules
+-------
+layout
+    Markers on the dock's back panel (:class:`Marker`, :class:`MarkerLayout`, :func:`default_layout`),
+    marker images and a printable true-scale sheet (:func:`write_sheet`).
+model
+    Camera intrinsics (:class:`CameraModel`, YAML :func:`load_camera` / :func:`save_camera`), the camera
+    mount on the vehicle (:class:`CameraMount`) and the frame chain NED -> body -> camera <- dock
+    (:func:`camera_from_dock`, :func:`project`, :func:`rotation_zyx`).
+render
+    Synthetic images of the markers (:func:`render_view`) and of checkerboards (:func:`render_checkerboard`)
+    for rehearsal and tests.
+pose
+    Marker detection (:class:`MarkerDetector`) and fused dock pose with covariance
+    (:func:`estimate_dock_pose`, :class:`DockPose`, :meth:`DockPose.in_body`).
+video
+    Frame sources: RTP/H.264 from BlueOS (``udp:5600``), V4L2, video files, image folders
+    (:func:`open_source`), and :class:`LatestFrameGrabber` (newest frame only, in a thread).
+tracker
+    ``fly`` with ``dock.source: camera``: the synthetic camera, the detection thread and the
+    lost-tracking states (imported on its own: ``auvdock.camera.tracker``).
+calibration
+    Checkerboard camera calibration (:func:`calibrate`, :func:`find_corners`) from image folders or videos
+    (:func:`image_sources`).
+
+Frames: {n} NED; {b} body (x forward, y starboard, z down); {d} dock (origin at the docking point, x along the
+docked heading, z down); {c} camera (OpenCV: x right, y down, z optical axis). Poses are written
+``x_c = R_cd x_d + t_cd``; lengths in m, angles in rad unless the name says ``_deg``, pixels in px.
+"""
+
+from auvdock.camera.calibration import calibrate, find_corners, image_sources
+from auvdock.camera.layout import (
+    DICTIONARIES,
+    Marker,
+    MarkerLayout,
+    aruco_dictionary,
+    default_layout,
+    marker_image,
+    sheet_size_in,
+    write_sheet,
+)
+from auvdock.camera.model import (
+    CameraModel,
+    CameraMount,
+    camera_from_dock,
+    load_camera,
+    project,
+    rotation_zyx,
+    save_camera,
+)
+from auvdock.camera.pose import (
+    Detection,
+    DockPose,
+    MarkerDetector,
+    estimate_dock_pose,
+    relative_pose_truth,
+    wrap_angle,
+)
+from auvdock.camera.render import render_checkerboard, render_view
+from auvdock.camera.video import Frame, FrameSource, LatestFrameGrabber, open_source, stream_rtp
+
+__all__ = [
+    "Frame",
+    "FrameSource",
+    "LatestFrameGrabber",
+    "open_source",
+    "stream_rtp",
+    "DICTIONARIES",
+    "CameraModel",
+    "CameraMount",
+    "Detection",
+    "DockPose",
+    "Marker",
+    "MarkerDetector",
+    "MarkerLayout",
+    "aruco_dictionary",
+    "calibrate",
+    "camera_from_dock",
+    "default_layout",
+    "estimate_dock_pose",
+    "find_corners",
+    "image_sources",
+    "load_camera",
+    "marker_image",
+    "project",
+    "relative_pose_truth",
+    "render_checkerboard",
+    "render_view",
+    "rotation_zyx",
+    "save_camera",
+    "sheet_size_in",
+    "wrap_angle",
+    "write_sheet",
+]

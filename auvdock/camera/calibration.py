@@ -1,0 +1,206 @@
+"""Checkerboard camera calibration (OpenCV pinhole + 5-term plumb-bob distortion).
+
+Board convention (OpenCV): ``cols x rows`` INNER corners, i.e. (cols + 1) x (rows + 1) squares of side
+``square_m``; object points ``(i square_m, j square_m, 0)`` in m, i along a row (fastest), j down the
+columns. Print the board flat and rigid, and take views that tilt it (+-30 deg or more) and cover the whole
+image, corners included.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Iterator
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from auvdock.camera.model import CameraModel
+
+__all__ = ["IMAGE_SUFFIXES", "board_points", "calibrate", "find_corners", "image_sources"]
+
+#: File suffixes read as images by :func:`image_sources` (case-insensitive).
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
+
+
+def _check_pattern(cols: int, rows: int) -> None:
+    for name, v in (("cols", cols), ("rows", rows)):
+        if isinstance(v, bool) or not isinstance(v, int | np.integer) or v < 2:
+            raise ValueError(f"{name}: expected an integer >= 2 (inner corners), got {v!r}")
+
+
+def _gray(image: np.ndarray) -> np.ndarray:
+    image = np.asarray(image)
+    if image.ndim == 3 and image.shape[2] == 3:
+        image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+    if image.ndim != 2:
+        raise ValueError(
+            f"image: expected a grayscale (h, w) or BGR (h, w, 3) array, got shape {image.shape}"
+        )
+    if image.dtype != np.uint8:
+        raise ValueError(f"image: expected dtype uint8, got {image.dtype}")
+    return image
+
+
+def board_points(cols: int, rows: int, square_m: float) -> np.ndarray:
+    """Inner-corner positions on the board, m, shape (cols * rows, 3), in OpenCV's detection order."""
+    _check_pattern(cols, rows)
+    if not (math.isfinite(square_m) and square_m > 0):
+        raise ValueError(f"square_m: must be > 0, got {square_m}")
+    grid = np.mgrid[0:cols, 0:rows].T.reshape(-1, 2)
+    return np.hstack([grid * float(square_m), np.zeros((cols * rows, 1))])
+
+
+def find_corners(image: np.ndarray, cols: int, rows: int) -> np.ndarray | None:
+    """Inner corners of a ``cols x rows`` checkerboard, refined to sub-pixel accuracy.
+
+    Parameters
+    ----------
+    image : ndarray, uint8, shape (h, w) or (h, w, 3) (BGR)
+    cols, rows : int
+        Inner corners per row and per column.
+
+    Returns
+    -------
+    ndarray, shape (cols * rows, 2), or None
+        Corner pixel coordinates (row by row, OpenCV order); None when the whole board is not found.
+    """
+    _check_pattern(cols, rows)
+    gray = _gray(image)
+    flags = cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_FAST_CHECK
+    found, corners = cv2.findChessboardCorners(gray, (cols, rows), flags=flags)
+    if not found or corners is None:
+        return None
+    pts = corners.reshape(rows, cols, 2)
+    spacing = min(
+        np.linalg.norm(np.diff(pts, axis=1), axis=2).min(), np.linalg.norm(np.diff(pts, axis=0), axis=2).min()
+    )
+    win = int(np.clip(round(spacing / 3.0), 2, 11))  # half window, kept well inside one square
+    criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 100, 1e-4)
+    refined = cv2.cornerSubPix(gray, corners.astype(np.float32), (win, win), (-1, -1), criteria)
+    return refined.reshape(-1, 2).astype(float)
+
+
+def calibrate(
+    images: Iterable[np.ndarray], cols: int, rows: int, square_m: float, *, min_views: int = 5
+) -> CameraModel:
+    """Calibrate a camera from checkerboard images.
+
+    Parameters
+    ----------
+    images : iterable of ndarray
+        uint8 grayscale or BGR frames, all of one size (e.g. from :func:`image_sources`).
+    cols, rows : int
+        Inner corners per row and per column of the board.
+    square_m : float
+        Square side, m (sets the scale of the extrinsics only; intrinsics do not depend on it).
+    min_views : int
+        Minimum number of images in which the whole board must be found.
+
+    Returns
+    -------
+    CameraModel
+        ``K``, 5-term distortion, image size, RMS reprojection error (px), board and number of views used.
+
+    Raises
+    ------
+    ValueError
+        No images; images of different sizes; or too few views, e.g.
+        ``"only 3 of 12 images show the 9x6 board (need 5)"``.
+    """
+    objp = board_points(cols, rows, square_m).astype(np.float32)
+    if isinstance(min_views, bool) or not isinstance(min_views, int) or min_views < 1:
+        raise ValueError(f"min_views: expected a positive integer, got {min_views!r}")
+    size: tuple[int, int] | None = None
+    object_points, image_points = [], []
+    n_images = 0
+    for k, image in enumerate(images):
+        gray = _gray(image)
+        h, w = gray.shape
+        if size is None:
+            size = (w, h)
+        elif size != (w, h):
+            raise ValueError(
+                f"images[{k}]: size {w}x{h} px differs from the first image's {size[0]}x{size[1]} px"
+            )
+        n_images += 1
+        corners = find_corners(gray, cols, rows)
+        if corners is not None:
+            object_points.append(objp)
+            image_points.append(corners.astype(np.float32).reshape(-1, 1, 2))
+    if size is None:
+        raise ValueError("images: no images given")
+    n = len(image_points)
+    if n < min_views:
+        raise ValueError(f"only {n} of {n_images} images show the {cols}x{rows} board (need {min_views})")
+    criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-12)
+    rms, K, dist, _, _ = cv2.calibrateCamera(object_points, image_points, size, None, None, criteria=criteria)
+    return CameraModel(
+        K=K,
+        dist=np.asarray(dist, dtype=float).ravel()[:5],
+        image_size=size,
+        rms_px=float(rms),
+        board=(int(cols), int(rows), float(square_m)),
+        n_views=n,
+    )
+
+
+def image_sources(path: str | Path, *, every: int = 1) -> Iterator[np.ndarray]:
+    """Grayscale uint8 frames from a directory of images, a single image, or a video file.
+
+    Parameters
+    ----------
+    path : str or Path
+        A directory (its files with a suffix in :data:`IMAGE_SUFFIXES`, sorted by name), an image file, or a
+        video file readable by ``cv2.VideoCapture``.
+    every : int
+        Yield every ``every``-th frame / image (e.g. 15 for a 30 fps video: two frames per second).
+
+    Returns
+    -------
+    iterator of ndarray, uint8, shape (h, w)
+        Images are read lazily; the path is checked (and a video opened) at the call.
+
+    Raises
+    ------
+    ValueError
+        Missing path, a directory without images, an unreadable image, or a file OpenCV cannot open.
+    """
+    if isinstance(every, bool) or not isinstance(every, int) or every < 1:
+        raise ValueError(f"every: expected a positive integer, got {every!r}")
+    path = Path(path)
+    if not path.exists():
+        raise ValueError(f"{path}: no such file or directory")
+    if path.is_dir():
+        files = sorted(p for p in path.iterdir() if p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES)
+        if not files:
+            raise ValueError(f"{path}: no images ({', '.join(IMAGE_SUFFIXES)}) in this directory")
+        return (_read_image(p) for p in files[::every])
+    if path.suffix.lower() in IMAGE_SUFFIXES:
+        return iter([_read_image(path)])
+    cap = cv2.VideoCapture(str(path))
+    if not cap.isOpened():
+        cap.release()
+        raise ValueError(f"{path}: cannot open as a video (not an image directory, image or video file)")
+    return _video_frames(cap, every)
+
+
+def _read_image(path: Path) -> np.ndarray:
+    image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+    if image is None:
+        raise ValueError(f"{path}: cannot read image")
+    return image
+
+
+def _video_frames(cap: cv2.VideoCapture, every: int) -> Iterator[np.ndarray]:
+    try:
+        k = 0
+        while True:
+            ok, frame = cap.read()
+            if not ok:
+                break
+            if k % every == 0:
+                yield frame if frame.ndim == 2 else cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
+            k += 1
+    finally:
+        cap.release()

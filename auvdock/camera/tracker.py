@@ -1,0 +1,343 @@
+"""Dock tracking for ``auvdock fly`` with ``dock.source: camera``.
+
+Pieces, each small:
+
+* :class:`SyntheticCamera` -- a frame source that renders the dock's markers
+  (:func:`auvdock.camera.render.render_view`) from the vehicle's latest pose, for rehearsal
+  with ``auvdock vehicle-sim`` and for tests (``camera.source: synthetic``);
+* :class:`DockTracker` -- a background thread that takes the newest camera frame
+  (:class:`auvdock.camera.video.LatestFrameGrabber`: slow detection drops frames, it never
+  lags), detects the markers, fuses the dock pose (:func:`auvdock.camera.pose.estimate_dock_pose`)
+  and turns it into a dock position in the mission's NED frame with the vehicle pose at the
+  frame's capture time, as a :class:`DockFix` with its covariance and latency;
+* :class:`TrackingMonitor` -- the lost-tracking state machine the control loop consults
+  every step: ``tracking`` while the last fix is younger than ``camera.hold_s`` (the
+  controller flies on the tracking filter's prediction between frames), ``holding``
+  (neutral thrust) until ``camera.abort_s``, then ``lost`` (the session aborts).
+
+The tracking filter itself is :class:`auvdock.dock.TrackedDock` with a process noise: a
+Kalman filter on the dock's offset from its heave model, so between frames the dock moves as
+the heave model predicts (Assumption 2) and each fix is weighed by its covariance.
+
+Detection runs in its own thread (OpenCV releases the GIL in its image work), so the 20 Hz
+control loop never waits for a frame.
+"""
+
+from __future__ import annotations
+
+import collections
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..dock import HeaveDock
+from .layout import MarkerLayout
+from .model import CameraModel, CameraMount, camera_from_dock, rotation_zyx
+from .pose import MarkerDetector, estimate_dock_pose
+from .render import render_view
+from .video import Frame, LatestFrameGrabber
+
+__all__ = ["SyntheticCamera", "DockFix", "DockTracker", "TrackingMonitor"]
+
+PoseFn = Callable[[], "tuple[float, np.ndarray] | None"]
+
+
+class SyntheticCamera:
+    """Rendered camera frames of the dock's markers from the vehicle's current pose.
+
+    Parameters
+    ----------
+    camera : CameraModel
+        Intrinsics of the rendered camera.
+    layout : MarkerLayout
+        The markers on the dock.
+    mount : CameraMount
+        Camera pose on the vehicle.
+    dock : HeaveDock
+        Where the dock really is (the mission's dock, possibly moved by ``offset_ned_m``).
+    pose_fn : callable
+        ``pose_fn() -> (t, eta)``: mission time (s) and vehicle pose (6,) in the mission
+        frame, or None before the first telemetry.
+    rate_hz : float
+        Frame rate, Hz (frames are paced in real time).
+    noise_std, blur_px : float
+        Image noise (grey levels) and Gaussian blur (px).
+    offset_ned_m : array_like (3,)
+        Displacement of the rendered dock from ``dock`` (NED, m).
+    dropout_s : list of (start, end)
+        Mission-time windows (s) in which the markers are hidden (blank frames).
+    seed : int
+        Noise seed.
+    """
+
+    def __init__(
+        self,
+        camera: CameraModel,
+        layout: MarkerLayout,
+        mount: CameraMount,
+        dock: HeaveDock,
+        pose_fn: PoseFn,
+        *,
+        rate_hz: float = 15.0,
+        noise_std: float = 2.0,
+        blur_px: float = 0.5,
+        offset_ned_m: np.ndarray | list[float] = (0.0, 0.0, 0.0),
+        dropout_s: list[list[float]] | None = None,
+        seed: int = 0,
+    ) -> None:
+        if rate_hz <= 0:
+            raise ValueError(f"rate_hz must be positive, got {rate_hz}")
+        self.camera, self.layout, self.mount, self.dock = camera, layout, mount, dock
+        self.pose_fn = pose_fn
+        self.period = 1.0 / float(rate_hz)
+        self.noise_std, self.blur_px = float(noise_std), float(blur_px)
+        self.offset = np.asarray(offset_ned_m, dtype=float)
+        self.dropout = [(float(a), float(b)) for a, b in (dropout_s or [])]
+        self._rng = np.random.default_rng(seed)
+        self._next = time.monotonic()
+        self._index = 0
+        self._closed = False
+        self.description = f"synthetic camera {camera.width}x{camera.height} at {rate_hz:g} Hz"
+
+    def hidden(self, t: float) -> bool:
+        """Whether the markers are hidden at mission time ``t`` (s)."""
+        return any(a <= t < b for a, b in self.dropout)
+
+    def read(self, timeout_s: float = 1.0) -> Frame | None:
+        """The next frame (paced at the frame rate), or None on timeout / before any pose."""
+        deadline = time.monotonic() + timeout_s
+        while not self._closed:
+            now = time.monotonic()
+            if now < self._next:
+                if self._next > deadline:
+                    time.sleep(max(0.0, deadline - now))
+                    return None
+                time.sleep(self._next - now)
+            self._next = max(self._next + self.period, time.monotonic())
+            pose = self.pose_fn()
+            if pose is None:
+                if time.monotonic() > deadline:
+                    return None
+                continue
+            t, eta = pose
+            t_capture = time.monotonic()
+            if self.hidden(t):
+                img = np.full((self.camera.height, self.camera.width), 110, dtype=np.uint8)
+            else:
+                p_dock = self.dock.position(t) + self.offset
+                R_cd, t_cd = camera_from_dock(eta, p_dock, self.dock.heading_rad, self.mount)
+                img = render_view(
+                    self.camera,
+                    self.layout,
+                    R_cd,
+                    t_cd,
+                    noise_std=self.noise_std,
+                    blur_px=self.blur_px,
+                    rng=self._rng,
+                )
+            self._index += 1
+            return Frame(image=img, t_capture=t_capture, index=self._index, pts_s=t)
+        return None
+
+    def close(self) -> None:
+        self._closed = True
+
+    def __enter__(self) -> SyntheticCamera:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+@dataclass
+class DockFix:
+    """One camera measurement of the dock.
+
+    Attributes
+    ----------
+    t : float
+        Mission time of the frame's capture, s.
+    position_ned_m : ndarray (3,)
+        Dock origin (docking point) in the mission's NED frame, m.
+    covariance_ned_m2 : ndarray (3, 3)
+        Its covariance, m^2 (camera pose covariance rotated into NED).
+    yaw_rel_rad : float
+        Dock heading relative to the vehicle's, rad.
+    markers : int
+        Markers used in the fused pose.
+    reprojection_px : float
+        RMS reprojection error of the fused pose, px.
+    latency_s : float
+        From the frame's capture to the fix being ready, s.
+    """
+
+    t: float
+    position_ned_m: np.ndarray
+    covariance_ned_m2: np.ndarray
+    yaw_rel_rad: float
+    markers: int
+    reprojection_px: float
+    latency_s: float
+
+
+class DockTracker:
+    """Detect the dock's markers in a background thread and publish :class:`DockFix` es.
+
+    Parameters
+    ----------
+    source : FrameSource
+        Any source with ``read(timeout_s)`` and ``close()`` (:mod:`auvdock.camera.video`,
+        :class:`SyntheticCamera`).
+    camera, layout, mount :
+        Intrinsics, dock markers, camera pose on the vehicle.
+    pose_at : callable
+        ``pose_at(t_capture) -> (t, eta) | None``: the mission time and the vehicle's pose
+        (6,) at a ``time.monotonic()`` instant (the control loop's pose history).
+    max_reprojection_px : float
+        Marker rejection threshold of the fused pose, px.
+    """
+
+    def __init__(
+        self,
+        source,
+        camera: CameraModel,
+        layout: MarkerLayout,
+        mount: CameraMount,
+        pose_at: Callable[[float], tuple[float, np.ndarray] | None],
+        *,
+        max_reprojection_px: float = 3.0,
+    ) -> None:
+        self.camera, self.layout, self.mount = camera, layout, mount
+        self.detector = MarkerDetector(layout, camera)
+        self.pose_at = pose_at
+        self.max_reprojection_px = float(max_reprojection_px)
+        self.grabber = LatestFrameGrabber(source)
+        self._fixes: collections.deque[DockFix] = collections.deque(maxlen=100)
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._loop, name="auvdock-dock-tracker", daemon=True)
+        self.frames = 0
+        self.frames_with_fix = 0
+        self.error: BaseException | None = None
+
+    def start(self) -> DockTracker:
+        self._thread.start()
+        return self
+
+    def stop(self) -> None:
+        """Stop the thread and the frame source (never raises)."""
+        self._stop.set()
+        try:
+            self.grabber.stop()
+        except Exception:  # noqa: BLE001
+            pass
+        if self._thread.is_alive():
+            self._thread.join(timeout=2.0)
+
+    def fixes(self) -> list[DockFix]:
+        """The fixes made since the last call (oldest first)."""
+        with self._lock:
+            out = list(self._fixes)
+            self._fixes.clear()
+        return out
+
+    def _loop(self) -> None:
+        last = -1
+        try:
+            while not self._stop.is_set():
+                frame = self.grabber.wait_new(last, timeout_s=0.2)
+                if frame is None:
+                    if self.grabber.error is not None:
+                        self.error = self.grabber.error
+                        return
+                    continue
+                last = frame.index
+                self.frames += 1
+                fix = self.process(frame)
+                if fix is not None:
+                    self.frames_with_fix += 1
+                    with self._lock:
+                        self._fixes.append(fix)
+        except Exception as e:  # noqa: BLE001 -- reported through .error, the loop sees no fixes
+            self.error = e
+
+    def process(self, frame: Frame) -> DockFix | None:
+        """One frame to a fix (None: no consistent markers or no pose for its time)."""
+        pose_t = self.pose_at(frame.t_capture)
+        if pose_t is None:
+            return None
+        t, eta = pose_t
+        detections = self.detector.detect(frame.image)
+        pose = estimate_dock_pose(
+            detections, self.layout, self.camera, max_reproj_px=self.max_reprojection_px
+        )
+        if pose is None:
+            return None
+        p_b, yaw_rel, cov4 = pose.in_body(self.mount)
+        R_nb = rotation_zyx(float(eta[3]), float(eta[4]), float(eta[5]))
+        p_ned = np.asarray(eta[0:3], dtype=float) + R_nb @ p_b
+        cov_ned = R_nb @ cov4[0:3, 0:3] @ R_nb.T
+        return DockFix(
+            t=t,
+            position_ned_m=p_ned,
+            covariance_ned_m2=cov_ned,
+            yaw_rel_rad=float(yaw_rel),
+            markers=len(pose.markers_used),
+            reprojection_px=float(pose.reproj_rms_px),
+            latency_s=time.monotonic() - frame.t_capture,
+        )
+
+
+class TrackingMonitor:
+    """Lost-tracking states from the age of the last fix.
+
+    ``tracking`` (age <= hold_s), ``holding`` (hold_s < age <= abort_s: neutral thrust),
+    ``lost`` (age > abort_s: abort).  Before the first fix the age counts from the start.
+    :meth:`update` returns the state and an event text when it changed (else None).
+    """
+
+    def __init__(self, hold_s: float, abort_s: float) -> None:
+        if not 0 < hold_s < abort_s:
+            raise ValueError(f"need 0 < hold_s < abort_s, got {hold_s} and {abort_s}")
+        self.hold_s, self.abort_s = float(hold_s), float(abort_s)
+        self.last_fix_t: float | None = None
+        self.state = "searching"
+        self.losses = 0
+
+    def age(self, t: float) -> float:
+        """Seconds since the last fix (since t = 0 before the first)."""
+        return t - (0.0 if self.last_fix_t is None else self.last_fix_t)
+
+    def update(self, t: float, fix_t: float | None) -> tuple[str, str | None]:
+        """The state at mission time ``t`` (s), given the newest fix's time (None: no new fix)."""
+        previous = self.last_fix_t
+        if fix_t is not None:
+            self.last_fix_t = fix_t if self.last_fix_t is None else max(self.last_fix_t, fix_t)
+        age = self.age(t)
+        if self.last_fix_t is None:
+            new = "searching" if age <= self.abort_s else "lost"
+        elif age <= self.hold_s:
+            new = "tracking"
+        elif age <= self.abort_s:
+            new = "holding"
+        else:
+            new = "lost"
+        event = None
+        if new != self.state:
+            if new == "tracking" and self.state == "searching":
+                event = f"camera: dock found at t = {t:.2f} s"
+            elif new == "tracking":
+                gap = (self.last_fix_t or 0.0) - (previous or 0.0)
+                event = f"camera: dock recovered at t = {t:.2f} s (no fix for {gap:.2f} s)"
+            elif new == "holding":
+                self.losses += 1
+                event = f"camera: dock lost for {age:.2f} s: neutral thrust, holding"
+            elif new == "lost" and self.last_fix_t is None:
+                event = f"camera: no dock markers seen within {self.abort_s:g} s"
+            else:
+                event = f"camera: dock lost for {age:.2f} s (limit {self.abort_s:g} s)"
+            self.state = new
+        return new, event
