@@ -641,6 +641,32 @@ def bench(
     console.print(t)
 
 
+@app.command()
+def sweep(
+    sweep_file: Path = typer.Argument(..., help="Sweep YAML file (e.g. missions/sweeps/current_speed.yaml)."),
+    out: Path | None = typer.Option(
+        None, "--out", "-o", help="Output directory (default: runs/sweeps/<name>)."
+    ),
+    workers: int | None = typer.Option(
+        None, "--workers", "-j", min=1, help="Local Dask worker processes (default: one per core)."
+    ),
+    scheduler: str | None = typer.Option(
+        None, "--scheduler", help="Submit to a running Dask cluster, e.g. tcp://HOST:8786."
+    ),
+    resume: bool = typer.Option(False, "--resume", help="Skip runs already in the results file."),
+    trajectories: bool = typer.Option(False, "--trajectories", help="Also store every run's trajectory."),
+) -> None:
+    """Monte Carlo robustness campaign on Dask: success rates with Wilson intervals, figures, summary."""
+    from .sweep import SweepError, sweep_main
+
+    try:
+        code = sweep_main(sweep_file, out, workers, scheduler, resume, trajectories, console)
+    except (SweepError, MissionError) as e:
+        fail_input(str(e))
+        raise AssertionError("unreachable") from None
+    raise typer.Exit(code=code)
+
+
 def _load_layout(path: Path):
     """A marker layout from a mission file (its dock.markers) or a layout YAML file."""
     from .camera.layout import MarkerLayout

@@ -1,0 +1,446 @@
+"""Monte Carlo sweeps (:mod:`auvdock.sweep`, :mod:`auvdock.sweep_stats`) on small Dask clusters.
+
+The sweeps here are short (2.5 s of simulated time, still water, 8 runs): nothing docks,
+which is fine -- the sweep machinery is under test, the controllers are tested elsewhere.
+Every cluster has 2 worker processes and is closed by the fixture or run that started it.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+from pathlib import Path
+
+import dask
+import h5py
+import numpy as np
+import pytest
+from distributed import LocalCluster
+from rich.console import Console
+
+from auvdock.mission import MissionError, load_mission
+from auvdock.simulation import simulate
+from auvdock.sweep import (
+    FAULTS_ENV,
+    SweepError,
+    expand_sweep,
+    load_sweep,
+    read_sweep,
+    run_one,
+    run_sweep,
+    sweep_main,
+)
+from auvdock.sweep_stats import report_sweep, wilson_interval
+
+ROOT = Path(__file__).resolve().parents[1]
+STILL = ROOT / "missions" / "still.yaml"
+TIMEOUT = 2.5
+
+SMALL = f"""\
+name: {{name}}
+base: {STILL}
+controllers: [naive, optimized]
+seeds: 2
+grid:
+  flow.speed_m_s: [0.0, 0.5]
+  flow.direction_deg: [90]
+timeout_s: {TIMEOUT}
+"""
+
+
+def _write(tmp: Path, name: str, text: str | None = None) -> Path:
+    p = tmp / f"{name}.yaml"
+    p.write_text(text if text is not None else SMALL.format(name=name))
+    return p
+
+
+def _table(path: Path) -> np.ndarray:
+    with h5py.File(path, "r") as f:
+        return f["runs"][()]
+
+
+# ------------------------------------------------------------------------------ statistics
+
+
+def _wilson_formula(k: int, n: int, z: float = 1.959964) -> tuple[float, float]:
+    p = k / n
+    denom = 1 + z**2 / n
+    centre = (p + z**2 / (2 * n)) / denom
+    half = z / denom * math.sqrt(p * (1 - p) / n + z**2 / (4 * n**2))
+    return centre - half, centre + half
+
+
+def test_wilson_interval_known_values_and_edges() -> None:
+    lo, hi = wilson_interval(8, 11)
+    assert (lo, hi) == pytest.approx(_wilson_formula(8, 11), abs=1e-12)
+    assert lo == pytest.approx(0.434, abs=1e-3) and hi == pytest.approx(0.903, abs=1e-3)
+    # 0 of n: the lower end is exactly 0, the upper one z^2 / (n + z^2)
+    lo, hi = wilson_interval(0, 10)
+    assert lo == 0.0 and hi == pytest.approx(1.959964**2 / (10 + 1.959964**2), abs=1e-12)
+    assert hi == pytest.approx(_wilson_formula(0, 10)[1], abs=1e-12)
+    # n of n: mirror image
+    lo, hi = wilson_interval(10, 10)
+    assert hi == 1.0 and lo == pytest.approx(10 / (10 + 1.959964**2), abs=1e-12)
+    assert wilson_interval(0, 0) == (0.0, 1.0)
+    assert wilson_interval(5, 10)[0] == pytest.approx(1 - wilson_interval(5, 10)[1], abs=1e-12)
+    with pytest.raises(ValueError):
+        wilson_interval(3, 2)
+
+
+# ------------------------------------------------------------------------------ sweep files
+
+
+def test_shipped_sweeps_expand() -> None:
+    s = load_sweep(ROOT / "missions" / "sweeps" / "current_speed.yaml")
+    runs = expand_sweep(s)
+    assert len(runs) == s.n_runs == 6 * 8 * 5
+    assert len({r.run_id for r in runs}) == len(runs)
+    r = next(r for r in runs if r.values == {"flow.speed_m_s": 2.0, "flow.direction_deg": 90})
+    assert r.mission["flow"]["type"] == "constant" and r.mission["flow"]["case"] is None
+    assert r.mission["flow"]["velocity_ned_m_s"] == pytest.approx([0.0, 2.0], abs=1e-12)
+    assert r.mission["docking"]["timeout_s"] == 75.0
+
+    t = load_sweep(ROOT / "missions" / "sweeps" / "tank_trials.yaml")
+    runs = expand_sweep(t)
+    assert len(runs) == t.n_runs == 4 * 4 * 3 * 2 * 3
+    assert t.model_error.n > 0 and {r.controller for r in runs} == {"oracle", "sequential", "optimized"}
+    r = next(r for r in runs if r.values["dock.heave.frequency_hz"] == 0.8)
+    heave = r.mission["dock"]["heave"]
+    assert heave["angular_frequency_rad_s"] == pytest.approx(2 * math.pi * 0.8)
+    assert all(r.truth_overrides for r in runs)
+    assert [x["docked"] for x in t.model_dump()["reference"]] == [8]
+
+
+def test_expansion_ids_derived_flow_and_reproducible_draws(tmp_path: Path) -> None:
+    text = f"""\
+name: draws
+base: {ROOT / "missions" / "diagonal.yaml"}
+controllers: [oracle]
+seeds: 2
+grid:
+  flow.speed_m_s: [1.0, 2.0]
+random:
+  n: 3
+  fields:
+    dock.heave.amplitude_m: {{uniform: [0.0, 0.5]}}
+    controller.horizon_steps: {{choice: [8, 10, 12]}}
+sweep_seed: 7
+"""
+    runs = expand_sweep(load_sweep(_write(tmp_path, "draws", text)))
+    assert len(runs) == 2 * 3 * 2
+    assert runs[0].run_id == "p0000-oracle-s0-m0" and runs[-1].run_id == "p0005-oracle-s1-m0"
+    # only the speed varies: the direction is the base's (case 2 flows towards 45 deg)
+    v = runs[-1].mission["flow"]["velocity_ned_m_s"]
+    assert v == pytest.approx([2.0 / math.sqrt(2), 2.0 / math.sqrt(2)], abs=1e-9)
+    assert all(isinstance(r.values["controller.horizon_steps"], int) for r in runs)
+    assert runs[0].mission["controller"]["horizon_steps"] == runs[0].values["controller.horizon_steps"]
+    # the same file gives the same draws; adding a field leaves the others' draws alone
+    again = expand_sweep(load_sweep(_write(tmp_path, "draws", text)))
+    assert [r.values for r in again] == [r.values for r in runs]
+    more = text.replace("sweep_seed: 7", "") + "    sensors.accel_std_m_s2: {normal: [0.0045, 0.001]}\n"
+    more = more.replace("name: draws", "name: draws\nsweep_seed: 7")
+    plus = expand_sweep(load_sweep(_write(tmp_path, "more", more)))
+    assert [r.values["dock.heave.amplitude_m"] for r in plus] == [
+        r.values["dock.heave.amplitude_m"] for r in runs
+    ]
+
+
+BAD = [
+    (
+        "grid: {flow.speedd_m_s: [1.0]}",
+        "grid.flow.speedd_m_s: unknown mission field (flow has: case, type, velocity_ned_m_s, amplitude_m_s, "
+        "period_h, epsilon; derived by the sweep: speed_m_s, direction_deg)",
+    ),
+    (
+        "random: {n: 2, fields: {dock.heave.amplitude_m: {uniform: [0.5, 0.1]}}}",
+        "random.fields.dock.heave.amplitude_m.uniform: low 0.5 is above high 0.1",
+    ),
+    (
+        "random: {n: 2, fields: {dock.heave.amplitude_m: {gauss: [0.5, 0.1]}}}",
+        "random.fields.dock.heave.amplitude_m.gauss: unknown key (allowed: uniform, normal, choice)",
+    ),
+    (
+        "grid: {dock.heave.amplitude_m: [0.1, -0.2]}",
+        "grid.dock.heave.amplitude_m: input should be greater than or equal to 0 (got -0.2)",
+    ),
+    (
+        "model_error: {n: 1, scale: {added_mas: 0.1}}",
+        "model_error.scale.added_mas: is not a numeric vehicle parameter (scalable: added_mass, buoyancy_N, "
+        "inertia_kg_m2, linear_damping, mass_kg, quadratic_damping, r_b_m, r_g_m, weight_N)",
+    ),
+]
+
+
+@pytest.mark.parametrize("body, message", BAD, ids=[m.split(":")[0] for _, m in BAD])
+def test_bad_sweep_file_names_the_field(tmp_path: Path, body: str, message: str) -> None:
+    p = _write(tmp_path, "bad", f"base: {STILL}\n{body}\n")
+    with pytest.raises(SweepError) as e:
+        load_sweep(p)
+    assert str(e.value) == f"{p}: {message}"
+    assert isinstance(e.value, MissionError)  # same shape: the CLI prints either the same way
+
+
+def test_missing_base_file(tmp_path: Path) -> None:
+    p = _write(tmp_path, "nobase", "base: ../nope.yaml\n")
+    with pytest.raises(SweepError) as e:
+        load_sweep(p)
+    assert str(e.value) == f"{p}: base: mission file not found: {tmp_path / '../nope.yaml'}"
+    assert e.value.field == "base"
+
+
+# ------------------------------------------------------------------------------ model error
+
+
+def test_model_error_reaches_the_truth_model_only(tmp_path: Path, monkeypatch) -> None:
+    import auvdock.autopilot as autopilot_mod
+    from auvdock.vehicle import Vehicle
+
+    text = f"""\
+name: me
+base: {STILL}
+controllers: [oracle]
+model_error:
+  n: 2
+  scale:
+    added_mass: {{uniform: [1.5, 1.5]}}
+    linear_damping: {{uniform: [0.5, 0.5]}}
+    mass_kg: 0.05
+timeout_s: 1.0
+"""
+    runs = expand_sweep(load_sweep(_write(tmp_path, "me", text)))
+    assert [r.run_id for r in runs] == ["p0000-oracle-s0-m0", "p0000-oracle-s0-m1"]
+    nominal = load_mission(STILL).build_vehicle().params
+    spec = runs[0]
+    assert spec.factors["added_mass"] == 1.5 and spec.factors["linear_damping"] == 0.5
+    assert 0.85 <= spec.factors["mass_kg"] <= 1.15 and spec.factors["mass_kg"] != runs[1].factors["mass_kg"]
+
+    plant, model = [], []
+    real_stepper, real_build = Vehicle.stepper, autopilot_mod.build_controller
+
+    def stepper(self, *a, **k):
+        plant.append(self.params)
+        return real_stepper(self, *a, **k)
+
+    def build_controller(mission, vehicle, dock, controller=None):
+        model.append(vehicle.params)
+        return real_build(mission, vehicle, dock, controller)
+
+    monkeypatch.setattr(Vehicle, "stepper", stepper)
+    monkeypatch.setattr(autopilot_mod, "build_controller", build_controller)
+    out = run_one(spec)
+    assert out["row"]["error"] == ""
+    assert len(plant) == 1 and len(model) == 1
+    np.testing.assert_allclose(plant[0].added_mass, 1.5 * nominal.added_mass, rtol=1e-12)
+    np.testing.assert_allclose(plant[0].linear_damping, 0.5 * nominal.linear_damping, rtol=1e-12)
+    assert plant[0].mass_kg == pytest.approx(spec.factors["mass_kg"] * nominal.mass_kg, rel=1e-12)
+    np.testing.assert_array_equal(plant[0].quadratic_damping, nominal.quadratic_damping)
+    # the controller (and its estimator) keep the nominal model
+    np.testing.assert_array_equal(model[0].added_mass, nominal.added_mass)
+    np.testing.assert_array_equal(model[0].linear_damping, nominal.linear_damping)
+    assert model[0].mass_kg == nominal.mass_kg
+    assert out["row"]["model_error.added_mass"] == 1.5
+
+    # and the truth model changes the run: the same run without model error moves differently
+    m = load_mission(STILL).with_updates(**{"docking.timeout_s": 1.0})
+    ref = simulate(m).outcome
+    assert abs(ref["path_length_m"] - out["row"]["path_length_m"]) > 1e-4
+
+
+def test_a_run_that_raises_is_recorded_not_raised(tmp_path: Path, monkeypatch) -> None:
+    import auvdock.simulation
+
+    spec = expand_sweep(load_sweep(_write(tmp_path, "oops")))[0]
+
+    def boom(*a, **k):
+        raise FloatingPointError("solver blew up")
+
+    monkeypatch.setattr(auvdock.simulation, "simulate", boom)
+    out = run_one(spec)
+    row = out["row"]
+    assert row["error"] == "FloatingPointError: solver blew up"
+    assert row["docked"] is False and row["reason"] == "error" and math.isnan(row["closest_approach_m"])
+
+
+# ------------------------------------------------------------------------------ a sweep on Dask
+
+
+@pytest.fixture(scope="module")
+def small(tmp_path_factory):
+    d = tmp_path_factory.mktemp("sweep")
+    path = _write(d, "small")
+    seen: list[tuple[int, int, int]] = []
+    res = run_sweep(
+        path,
+        d / "out",
+        workers=2,
+        trajectories=True,
+        progress=lambda done, total, failures, eta: seen.append((done, total, failures)),
+        command_line="auvdock sweep small.yaml",
+    )
+    return path, res, seen
+
+
+def test_dask_runs_equal_runs_in_this_process(small) -> None:
+    path, res, seen = small
+    assert res.total == 8 and len(res.ran) == 8 and not res.errors and not res.skipped
+    assert seen[0] == (0, 8, 0) and seen[-1] == (8, 8, 0)
+    rows, _ = read_sweep(res.path)
+    assert [r["run_id"] for r in rows] == [r.run_id for r in expand_sweep(load_sweep(path))]
+    assert all(r["worker"] and not r["error"] for r in rows)
+    base = load_mission(STILL)
+    for r in rows:
+        m = base.with_updates(
+            **{
+                "flow.case": None,
+                "flow.type": "constant",
+                "flow.velocity_ned_m_s": [0.0, r["flow.speed_m_s"]],
+                "controller.type": r["controller"],
+                "seed": r["seed"],
+            }
+        )
+        o = simulate(m, timeout_s=TIMEOUT).outcome
+        assert r["docked"] == o["docked"]
+        assert r["closest_approach_m"] == pytest.approx(o["closest_approach_m"], abs=1e-9), r["run_id"]
+        assert r["path_length_m"] == pytest.approx(o["path_length_m"], abs=1e-9), r["run_id"]
+        assert r["end_time_s"] == pytest.approx(TIMEOUT)
+    # the FSE controller reads the (seeded) sensors: its two seeds differ
+    opt = [r for r in rows if r["controller"] == "optimized" and r["point"] == 1]
+    assert opt[0]["path_length_m"] != opt[1]["path_length_m"]
+
+
+def test_results_file_layout(small) -> None:
+    path, res, _ = small
+    with h5py.File(res.path, "r") as f:
+        a = f.attrs
+        assert a["format"] == "auvdock-sweep"
+        assert a["sweep_yaml"] == path.read_text()
+        assert a["command_line"] == "auvdock sweep small.yaml"
+        assert a["dask_version"] == dask.__version__
+        assert "cpu_count" in json.loads(a["machine"])
+        assert a["wall_time_s"] > 0 and int(a["total_runs"]) == 8
+        names = f["runs"].dtype.names
+        assert names[:7] == (
+            "run_id",
+            "point",
+            "controller",
+            "seed",
+            "model_error_draw",
+            "flow.speed_m_s",
+            "flow.direction_deg",
+        )
+        for col in ("docked", "time_to_dock_s", "contact_speed_m_s", "closest_approach_m", "path_length_m"):
+            assert col in names
+        assert {"flow_rmse_m_s", "solver_failures", "wall_time_s", "worker", "error"} <= set(names)
+        for rid in f["runs"]["run_id"]:
+            g = f[f"trajectories/{rid.decode()}"]
+            assert g["state"].shape == (50, 12) and g["time_s"].shape == (50,)
+    assert len(list((res.out_dir / "logs").glob("worker-*.log"))) == 2  # the local workers' output
+    rows, _ = read_sweep(res.path)
+    fse = [r for r in rows if r["controller"] == "optimized"]
+    assert all(np.isfinite(r["flow_rmse_m_s"]) for r in fse)
+
+
+def test_resume_on_a_finished_sweep_runs_nothing(small) -> None:
+    path, res, _ = small
+    before = _table(res.path)
+    again = run_sweep(path, res.out_dir, workers=2, resume=True, trajectories=True)
+    assert again.ran == [] and len(again.skipped) == 8 and again.scheduler.startswith("none")
+    after = _table(res.path)
+    assert after.dtype == before.dtype and len(after) == 8
+    for name in before.dtype.names:
+        a, b = before[name], after[name]
+        assert np.array_equal(a, b, equal_nan=a.dtype.kind == "f"), name
+
+
+def test_report_writes_figures_and_summary(small, tmp_path: Path) -> None:
+    _, res, _ = small
+    paths = report_sweep(res.path, tmp_path / "a")
+    names = [p.name for p in paths]
+    assert names == [
+        "success_by_controller.png",
+        "success_vs_flow.speed_m_s.png",
+        "success_vs_flow.direction_deg.png",
+        "success_map_flow.speed_m_s__flow.direction_deg.png",
+        "distributions.png",
+        "summary.md",
+    ]
+    for p in paths[:-1]:
+        assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    md = paths[-1].read_text()
+    assert "| naive | 4 | 0 | 0.0 % | 0.0-49.0 % | 0 |" in md
+    assert "## Success vs `flow.speed_m_s`" in md and "0/2 = 0.0 % [0.0-65.8 %]" in md
+    again = report_sweep(res.path, tmp_path / "b")  # the same file gives the same bytes
+    assert [p.read_bytes() for p in again] == [p.read_bytes() for p in paths]
+
+
+# ------------------------------------------------------------------------------ faults
+
+
+@pytest.fixture(scope="module")
+def faulty_cluster(tmp_path_factory):
+    """2 workers whose fault hook kills one run's worker once and makes another run raise."""
+    d = tmp_path_factory.mktemp("faults")
+    marker = d / "killed"
+    faults = {
+        "kill": {"faulty/p0001-naive-s0-m0": str(marker)},
+        "raise": ["faulty/p0000-optimized-s1-m0"],
+    }
+    with LocalCluster(
+        n_workers=2,
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=":0",
+        silence_logs=50,
+        env={FAULTS_ENV: json.dumps(faults)},
+    ) as cluster:
+        yield cluster, d, marker
+
+
+def test_killed_worker_loses_no_run_and_writes_none_twice(faulty_cluster) -> None:
+    cluster, d, marker = faulty_cluster
+    path = _write(d, "faulty")
+    res = run_sweep(path, d / "out", scheduler=cluster.scheduler_address)
+    assert marker.exists()  # the worker running p0001-naive-s0-m0 was killed
+    ids = [str(x, "utf-8") for x in _table(res.path)["run_id"]]
+    assert len(ids) == 8 and sorted(ids) == sorted(r.run_id for r in expand_sweep(load_sweep(path)))
+    rows = {r["run_id"]: r for r in read_sweep(res.path)[0]}
+    killed = rows["p0001-naive-s0-m0"]
+    assert killed["error"] == "" and np.isfinite(killed["closest_approach_m"])
+    raised = rows["p0000-optimized-s1-m0"]
+    assert raised["docked"] is False and raised["reason"] == "error"
+    assert raised["error"].startswith("RuntimeError: injected failure in run p0000-optimized-s1-m0")
+    assert list(res.errors) == ["p0000-optimized-s1-m0"]
+    assert all(r["error"] == "" for k, r in rows.items() if k != "p0000-optimized-s1-m0")
+
+
+def test_sweep_main_prints_summary_and_exits_1_on_errors(faulty_cluster) -> None:
+    cluster, d, _ = faulty_cluster
+    path = _write(d, "faulty")
+    buf = io.StringIO()
+    console = Console(file=buf, width=400, force_terminal=False)
+    code = sweep_main(path, d / "main", None, cluster.scheduler_address, False, False, console)
+    text = buf.getvalue()
+    assert code == 1
+    assert "sweep faulty: 2 points x 2 controllers x 2 seeds = 8 runs" in text
+    assert "success per controller" in text and "p0000-optimized-s1-m0: RuntimeError" in text
+    assert f"results: {d / 'main' / 'sweep.h5'}" in text
+    assert (d / "main" / "summary.md").is_file() and (d / "main" / "success_by_controller.png").is_file()
+
+
+def test_ctrl_c_keeps_finished_rows_and_resume_completes(tmp_path: Path) -> None:
+    path = _write(tmp_path, "interrupted")
+
+    def stop(done, total, failures, eta):
+        if done >= 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run_sweep(path, tmp_path / "out", workers=2, progress=stop)
+    rows, attrs = read_sweep(tmp_path / "out" / "sweep.h5")  # readable, with the rows so far
+    assert 2 <= len(rows) < 8 and attrs["wall_time_s"] > 0
+    first = {r["run_id"] for r in rows}
+    res = run_sweep(path, tmp_path / "out", workers=2, resume=True)
+    assert set(res.skipped) == first and len(res.ran) == 8 - len(first)
+    ids = [str(x, "utf-8") for x in _table(res.path)["run_id"]]
+    assert len(ids) == 8 == len(set(ids))
