@@ -526,9 +526,17 @@ def _run_pool(ctx, todo, jobs, q, runner, f, records, ran, table, emit) -> list[
             for proc in procs:
                 proc.terminate()
                 proc.join(timeout=5)
-            for fut in not_done:
-                s = futures[fut]
+            for fut, s in futures.items():
                 if s.key in records:
+                    continue
+                if fut.done() and not fut.cancelled() and fut.exception() is None:
+                    # finished in the same wait() as the interrupt: keep it like any other
+                    rec = fut.result()
+                    rec.pop("traceback", None)
+                    if rec["status"] == "done" and not _merge_part(f, s):
+                        rec["status"], rec["error"] = "failed", "results file missing"
+                    records[s.key] = rec
+                    ran.append(s.key)
                     continue
                 if _merge_part(f, s):  # the steps so far, marked complete = False
                     rec = _empty_record(s)
