@@ -11,7 +11,7 @@ from auvdock.controllers import build_controller, resolve_solver
 from auvdock.controllers.mpc import SOLVERS
 from auvdock.controllers.rti import COLD_START_MAX_ITER
 from auvdock.mission import load_mission
-from auvdock.results import STATUS_OK
+from auvdock.results import STATUS_FAILED, STATUS_OK
 from auvdock.simulation import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -79,3 +79,15 @@ def test_auto_solver() -> None:
         "rti",
     ]
     assert resolve_solver("ipopt", "optimized") == "ipopt"
+
+
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_non_finite_input_falls_back_without_solving(solver: str) -> None:
+    m = _case2(solver)
+    c = build_controller(m, m.build_vehicle(), m.build_dock())
+    x = m.start_state()
+    good = c.mpc.solve(0.0, x, np.zeros(8), FLOW)
+    r = c.mpc.solve(0.05, x, good.thrust, np.array([np.nan, 0.5, 0.0]))
+    assert r.status == STATUS_FAILED and r.iterations == 0
+    assert r.return_status == "non-finite input (state, flow estimate or dock)"
+    assert np.allclose(r.thrust, good.plan_thrust[1])  # the next input of the last good plan

@@ -408,6 +408,9 @@ class DockingMPC:
         t0 = time.perf_counter()
         lam_x = lam_g = None
         try:
+            if not np.all(np.isfinite(p)):
+                # a diverged estimate (or state) would make every solver iteration fail on NaN
+                raise _NonFiniteInput("non-finite input (state, flow estimate or dock)")
             with SigintDeferred():
                 if self._rti is not None:
                     w_opt, ok, ret, iters, fval = self._rti.solve(
@@ -424,6 +427,8 @@ class DockingMPC:
                     lam_x = np.asarray(sol["lam_x"]).ravel()
                     lam_g = np.asarray(sol["lam_g"]).ravel()
             finite = bool(np.all(np.isfinite(w_opt)))
+        except _NonFiniteInput as e:
+            ok, ret, iters, finite, w_opt, fval = False, str(e), 0, False, None, math.nan
         except RuntimeError as e:  # CasADi evaluation errors
             ok, ret, iters, finite, w_opt, fval = False, f"error: {e}", -1, False, None, math.nan
         solve_time = time.perf_counter() - t0
@@ -464,6 +469,10 @@ class DockingMPC:
         R_all = np.asarray(self._rot_map(Xm[:, 3:6].T)).reshape(3, -1, 3)  # [i, k, j] = R_k[i, j]
         X[:, 6:9] += np.einsum("ikj,i->kj", R_all, flow_ned)
         return X
+
+
+class _NonFiniteInput(Exception):
+    """The solve's parameters are not finite: no solve, the fallback input is used."""
 
 
 class SigintDeferred:
