@@ -410,7 +410,7 @@ class DockingMPC:
         try:
             if not np.all(np.isfinite(p)):
                 # a diverged estimate (or state) would make every solver iteration fail on NaN
-                raise _NonFiniteInput("non-finite input (state, flow estimate or dock)")
+                raise _NonFiniteInputError("non-finite input (state, flow estimate or dock)")
             with SigintDeferred():
                 if self._rti is not None:
                     w_opt, ok, ret, iters, fval = self._rti.solve(
@@ -427,7 +427,7 @@ class DockingMPC:
                     lam_x = np.asarray(sol["lam_x"]).ravel()
                     lam_g = np.asarray(sol["lam_g"]).ravel()
             finite = bool(np.all(np.isfinite(w_opt)))
-        except _NonFiniteInput as e:
+        except _NonFiniteInputError as e:
             ok, ret, iters, finite, w_opt, fval = False, str(e), 0, False, None, math.nan
         except RuntimeError as e:  # CasADi evaluation errors
             ok, ret, iters, finite, w_opt, fval = False, f"error: {e}", -1, False, None, math.nan
@@ -471,7 +471,7 @@ class DockingMPC:
         return X
 
 
-class _NonFiniteInput(Exception):
+class _NonFiniteInputError(Exception):
     """The solve's parameters are not finite: no solve, the fallback input is used."""
 
 
