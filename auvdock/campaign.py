@@ -48,7 +48,7 @@ import h5py
 import numpy as np
 
 from . import __version__
-from .results import list_runs, read_run
+from .results import list_runs, open_format, read_run
 
 __all__ = [
     "PAPER_MISSIONS",
@@ -488,6 +488,30 @@ def _run_pool(ctx, todo, jobs, q, runner, f, records, ran, table, emit) -> list[
     """Run ``todo`` in one pool; returns the runs to retry in a new pool if it broke."""
     futures: dict[Future, RunSpec] = {}
     started: set[tuple[str, str]] = set()
+
+    def collect(fut: Future, s: RunSpec) -> bool:
+        """Record a finished run (its part file merged); True if its worker died."""
+        died = False
+        try:
+            rec = fut.result()
+        except BrokenProcessPool:
+            died = True
+            rec = _empty_record(s)
+            rec["error"] = "worker process died"
+        except Exception as e:  # noqa: BLE001
+            rec = _empty_record(s)
+            rec["error"] = f"{type(e).__name__}: {e}"
+        rec.pop("traceback", None)
+        copied = _merge_part(f, s)
+        if rec["status"] == "done" and not copied:
+            rec["status"], rec["error"] = "failed", "results file missing"
+        records[s.key] = rec
+        ran.append(s.key)
+        _write_table(f, table())
+        f.flush()
+        emit("done", s.key, rec)
+        return died
+
     with ProcessPoolExecutor(max_workers=min(jobs, len(todo)), mp_context=ctx) as pool:
         for s in todo:
             futures[pool.submit(runner, s, q)] = s
@@ -498,25 +522,7 @@ def _run_pool(ctx, todo, jobs, q, runner, f, records, ran, table, emit) -> list[
                 done, not_done = wait(not_done, timeout=0.2, return_when=FIRST_COMPLETED)
                 _drain(q, started, emit)
                 for fut in done:
-                    s = futures[fut]
-                    try:
-                        rec = fut.result()
-                    except BrokenProcessPool:
-                        broken = True
-                        rec = _empty_record(s)
-                        rec["error"] = "worker process died"
-                    except Exception as e:  # noqa: BLE001
-                        rec = _empty_record(s)
-                        rec["error"] = f"{type(e).__name__}: {e}"
-                    rec.pop("traceback", None)
-                    copied = _merge_part(f, s)
-                    if rec["status"] == "done" and not copied:
-                        rec["status"], rec["error"] = "failed", "results file missing"
-                    records[s.key] = rec
-                    ran.append(s.key)
-                    _write_table(f, table())
-                    f.flush()
-                    emit("done", s.key, rec)
+                    broken = collect(fut, futures[fut]) or broken
                 if broken:
                     break
         except KeyboardInterrupt:
@@ -530,13 +536,7 @@ def _run_pool(ctx, todo, jobs, q, runner, f, records, ran, table, emit) -> list[
                 if s.key in records:
                     continue
                 if fut.done() and not fut.cancelled() and fut.exception() is None:
-                    # finished in the same wait() as the interrupt: keep it like any other
-                    rec = fut.result()
-                    rec.pop("traceback", None)
-                    if rec["status"] == "done" and not _merge_part(f, s):
-                        rec["status"], rec["error"] = "failed", "results file missing"
-                    records[s.key] = rec
-                    ran.append(s.key)
+                    collect(fut, s)  # finished in the same wait() as the interrupt
                     continue
                 if _merge_part(f, s):  # the steps so far, marked complete = False
                     rec = _empty_record(s)
@@ -575,15 +575,8 @@ def read_campaign(path: str | Path) -> tuple[list[dict[str, Any]], dict[str, Any
     ValueError
         If the file is not an auvdock campaign file.
     """
-    path = Path(path)
-    try:
-        f = h5py.File(path, "r")
-    except OSError as e:
-        raise ValueError(f"{path}: not an HDF5 file ({e})") from None
+    f, attrs = open_format(path, FORMAT, "campaign file (written by auvdock compare)")
     with f:
-        if f.attrs.get("format") != FORMAT:
-            raise ValueError(f"{path}: not an auvdock campaign file (written by auvdock compare)")
-        attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
         return _read_table(f), attrs
 
 

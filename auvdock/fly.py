@@ -470,28 +470,19 @@ class FlySession:
                     self.link.send_override(channels)
                 else:
                     self.link.send_neutral()
-                _, age_a = self.link.latest("ATTITUDE")
-                _, age_p = self.link.latest("LOCAL_POSITION_NED")
                 series = dict(out.series)
                 if "flow_body_true_m_s" in self.autopilot.extra_series:
                     series["flow_body_true_m_s"] = self._R(x[3:6]).T @ v_c
-                writer.append(
-                    time_s=t,
-                    state=x,
-                    thrust_N=out.thrust,
-                    wrench=self.vehicle.allocation @ out.thrust,
-                    flow_ned_m_s=v_c,
-                    dock_position_m=p_dock,
-                    dock_velocity_m_s=self.dock.velocity(t),
-                    distance_m=dist,
+                self._record(
+                    writer,
+                    t,
+                    x,
+                    thrust=out.thrust,
+                    status=out.status,
                     solve_time_s=out.solve_time_s,
-                    solver_status=out.status,
-                    channels_us=channels if self.arm_vehicle else NEUTRAL_CHANNELS,
-                    telemetry_age_s=np.array([age_a, age_p]),
-                    imu_specific_force_m_s2=f_b,
-                    armed=np.asarray(float(self.link.armed)),
-                    **series,
-                    **cam_series,
+                    channels=channels if self.arm_vehicle else NEUTRAL_CHANNELS,
+                    specific_force=f_b,
+                    series={**series, **cam_series},
                 )
                 states.append(x)
                 distances.append(dist)
@@ -539,27 +530,52 @@ class FlySession:
 
     def _append_idle(self, writer: RunWriter, t: float, x: np.ndarray, cam_series: dict) -> None:
         """Record a step flown with neutral thrust (no dock to steer to)."""
+        series = {name: np.full(shape, np.nan) for name, shape in self.autopilot.extra_series.items()}
+        self._record(
+            writer,
+            t,
+            x,
+            thrust=np.zeros(8),
+            status=STATUS_FALLBACK_ZERO,
+            solve_time_s=0.0,
+            channels=NEUTRAL_CHANNELS,
+            specific_force=np.full(3, np.nan),
+            series={**series, **cam_series},
+        )
+
+    def _record(
+        self,
+        writer: RunWriter,
+        t: float,
+        x: np.ndarray,
+        *,
+        thrust: np.ndarray,
+        status: int,
+        solve_time_s: float,
+        channels,
+        specific_force: np.ndarray,
+        series: dict[str, np.ndarray],
+    ) -> None:
+        """One row of the results file: the ``sim`` layout plus the telemetry series."""
         _, age_a = self.link.latest("ATTITUDE")
         _, age_p = self.link.latest("LOCAL_POSITION_NED")
         p_dock = self.dock.position(t)
-        series = {name: np.full(shape, np.nan) for name, shape in self.autopilot.extra_series.items()}
         writer.append(
             time_s=t,
             state=x,
-            thrust_N=np.zeros(8),
-            wrench=np.zeros(6),
+            thrust_N=thrust,
+            wrench=self.vehicle.allocation @ thrust,
             flow_ned_m_s=self.flow.velocity(x[0:3], t),
             dock_position_m=p_dock,
             dock_velocity_m_s=self.dock.velocity(t),
             distance_m=float(np.linalg.norm(x[0:3] - p_dock)),
-            solve_time_s=0.0,
-            solver_status=STATUS_FALLBACK_ZERO,
-            channels_us=NEUTRAL_CHANNELS,
+            solve_time_s=solve_time_s,
+            solver_status=status,
+            channels_us=channels,
             telemetry_age_s=np.array([age_a, age_p]),
-            imu_specific_force_m_s2=np.full(3, np.nan),
+            imu_specific_force_m_s2=specific_force,
             armed=np.asarray(float(self.link.armed)),
             **series,
-            **cam_series,
         )
 
     def _end(self) -> None:

@@ -643,19 +643,25 @@ def load_mission(path: str | Path) -> Mission:
         line: ``<file>: <field.path>: <problem>``.
     """
     p = Path(path)
-    if not p.exists():
-        raise MissionError(p, "", "file not found")
-    if not p.is_file():
-        raise MissionError(p, "", "not a file")
+    data, _ = read_yaml_file(p)
+    return parse_mission(data, p)
+
+
+def read_yaml_file(path: Path, error: type[MissionError] = MissionError) -> tuple[Any, str]:
+    """The parsed YAML content of a file and its text; ``error(path, "", problem)`` on a
+    missing or unreadable file or a syntax error (the problem names the line and column)."""
+    if not path.exists():
+        raise error(path, "", "file not found")
+    if not path.is_file():
+        raise error(path, "", "not a file")
     try:
-        text = p.read_text()
+        text = path.read_text()
     except (OSError, UnicodeDecodeError) as e:
-        raise MissionError(p, "", f"cannot read: {e}") from None
+        raise error(path, "", f"cannot read: {e}") from None
     try:
-        data = yaml.safe_load(text)
+        return yaml.safe_load(text), text
     except yaml.YAMLError as e:
         mark = getattr(e, "problem_mark", None)
         where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark is not None else ""
         problem = getattr(e, "problem", None) or str(e).splitlines()[0]
-        raise MissionError(p, "", f"YAML syntax error: {where}{problem}") from None
-    return parse_mission(data, p)
+        raise error(path, "", f"YAML syntax error: {where}{problem}") from None

@@ -104,6 +104,7 @@ __all__ = [
     "RunWriter",
     "RunResults",
     "read_run",
+    "open_format",
     "list_runs",
 ]
 
@@ -688,6 +689,28 @@ def read_run(source: str | Path | h5py.File, group: str = "/") -> RunResults:
     path = _checked_path(source)
     with h5py.File(path, "r") as f:
         return _read_group(f, gp, str(path))
+
+
+def open_format(path: str | Path, fmt: str, what: str) -> tuple[h5py.File, dict[str, Any]]:
+    """Open an auvdock HDF5 file read-only and check its ``format`` attribute.
+
+    Returns the open file and its attributes (bytes decoded).  ``what`` names the writer in
+    the error, e.g. ``"campaign file (written by auvdock compare)"``.
+
+    Raises
+    ------
+    ValueError
+        ``<path>: not an HDF5 file (...)`` or ``<path>: not an auvdock <what>``.
+    """
+    path = Path(path)
+    try:
+        f = h5py.File(path, "r")
+    except OSError as e:
+        raise ValueError(f"{path}: not an HDF5 file ({e})") from None
+    if f.attrs.get("format") != fmt:
+        f.close()
+        raise ValueError(f"{path}: not an auvdock {what}")
+    return f, {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
 
 
 def _checked_path(source: str | Path) -> Path:

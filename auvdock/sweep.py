@@ -161,11 +161,11 @@ from typing import Annotated, Any, Literal
 
 import h5py
 import numpy as np
-import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from . import __version__
-from .mission import CONTROLLER_TYPES, Mission, MissionError, load_mission
+from .mission import CONTROLLER_TYPES, Mission, MissionError, load_mission, read_yaml_file
+from .results import open_format
 
 __all__ = [
     "SweepError",
@@ -529,21 +529,7 @@ def load_sweep(path: str | Path) -> Sweep:
         or the first expanded mission that does not validate.
     """
     p = Path(path)
-    if not p.exists():
-        raise SweepError(p, "", "file not found")
-    if not p.is_file():
-        raise SweepError(p, "", "not a file")
-    try:
-        text = p.read_text()
-    except (OSError, UnicodeDecodeError) as e:
-        raise SweepError(p, "", f"cannot read: {e}") from None
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as e:
-        mark = getattr(e, "problem_mark", None)
-        where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark is not None else ""
-        problem = getattr(e, "problem", None) or str(e).splitlines()[0]
-        raise SweepError(p, "", f"YAML syntax error: {where}{problem}") from None
+    data, text = read_yaml_file(p, SweepError)
     if not isinstance(data, dict):
         raise SweepError(p, "", "a sweep file must hold a YAML mapping (key: value pairs)")
     try:
@@ -1172,15 +1158,8 @@ def read_sweep(path: str | Path) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     ValueError
         If the file is not an auvdock sweep file.
     """
-    path = Path(path)
-    try:
-        f = h5py.File(path, "r")
-    except OSError as e:
-        raise ValueError(f"{path}: not an HDF5 file ({e})") from None
+    f, attrs = open_format(path, FORMAT, "sweep file (written by auvdock sweep)")
     with f:
-        if f.attrs.get("format") != FORMAT:
-            raise ValueError(f"{path}: not an auvdock sweep file (written by auvdock sweep)")
-        attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
         ds = f["runs"]
         columns = json.loads(ds.attrs["columns"])
         attrs["columns"] = columns

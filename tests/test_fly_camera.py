@@ -8,6 +8,7 @@ really tracks it can dock there.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import socket
 import time
@@ -18,7 +19,6 @@ import yaml
 from typer.testing import CliRunner
 
 from auvdock.cli import app
-from auvdock.dock import HeaveDock
 from auvdock.fly import CAMERA_STATES
 from auvdock.hardware.vehicle_sim import VehicleSim
 from auvdock.mission import load_mission
@@ -58,13 +58,8 @@ def test_synthetic_camera_docks_in_the_tank_through_a_short_loss(tmp_path) -> No
     mission = camera_mission(tmp_path, hold_s=0.5, abort_s=3.0, synthetic={"dropout_s": [[3.0, 3.8]]})
     m = load_mission(mission)
     model = m.build_dock()
-    real = HeaveDock(
-        (model.position_ned_m[0], model.position_ned_m[1] + OFFSET_EAST_M, model.position_ned_m[2]),
-        model.heading_rad,
-        model.amplitude_m,
-        model.angular_frequency_rad_s,
-        model.phase_rad,
-    )
+    n, e, d = model.position_ned_m
+    real = dataclasses.replace(model, position_ned_m=(n, e + OFFSET_EAST_M, d))
     port = free_port()
     with VehicleSim(m, port=f"udpout:127.0.0.1:{port}") as sim:
         res = fly(port, tmp_path, mission, "--timeout", "45")

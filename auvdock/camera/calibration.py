@@ -15,7 +15,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from auvdock.camera.model import CameraModel
+from auvdock.camera.model import CameraModel, gray_image
 
 __all__ = ["IMAGE_SUFFIXES", "board_points", "calibrate", "find_corners", "image_sources"]
 
@@ -27,19 +27,6 @@ def _check_pattern(cols: int, rows: int) -> None:
     for name, v in (("cols", cols), ("rows", rows)):
         if isinstance(v, bool) or not isinstance(v, int | np.integer) or v < 2:
             raise ValueError(f"{name}: expected an integer >= 2 (inner corners), got {v!r}")
-
-
-def _gray(image: np.ndarray) -> np.ndarray:
-    image = np.asarray(image)
-    if image.ndim == 3 and image.shape[2] == 3:
-        image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
-    if image.ndim != 2:
-        raise ValueError(
-            f"image: expected a grayscale (h, w) or BGR (h, w, 3) array, got shape {image.shape}"
-        )
-    if image.dtype != np.uint8:
-        raise ValueError(f"image: expected dtype uint8, got {image.dtype}")
-    return image
 
 
 def board_points(cols: int, rows: int, square_m: float) -> np.ndarray:
@@ -66,7 +53,7 @@ def find_corners(image: np.ndarray, cols: int, rows: int) -> np.ndarray | None:
         Corner pixel coordinates (row by row, OpenCV order); None when the whole board is not found.
     """
     _check_pattern(cols, rows)
-    gray = _gray(image)
+    gray = gray_image(image)
     flags = cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_FAST_CHECK
     found, corners = cv2.findChessboardCorners(gray, (cols, rows), flags=flags)
     if not found or corners is None:
@@ -115,7 +102,7 @@ def calibrate(
     object_points, image_points = [], []
     n_images = 0
     for k, image in enumerate(images):
-        gray = _gray(image)
+        gray = gray_image(image)
         h, w = gray.shape
         if size is None:
             size = (w, h)

@@ -28,6 +28,7 @@ import numpy as np
 import yaml
 
 __all__ = [
+    "gray_image",
     "R_BC_DEFAULT",
     "CameraModel",
     "CameraMount",
@@ -42,6 +43,20 @@ __all__ = [
 #: optical axis = body +x, image right = body +y, image down = body +z.
 R_BC_DEFAULT = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 R_BC_DEFAULT.flags.writeable = False
+
+
+def gray_image(image: Any) -> np.ndarray:
+    """A camera image as grayscale uint8 (h, w): BGR (h, w, 3) is converted, else ValueError."""
+    image = np.asarray(image)
+    if image.ndim == 3 and image.shape[2] == 3:
+        image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+    if image.ndim != 2:
+        raise ValueError(
+            f"image: expected a grayscale (h, w) or BGR (h, w, 3) array, got shape {image.shape}"
+        )
+    if image.dtype != np.uint8:
+        raise ValueError(f"image: expected dtype uint8, got {image.dtype}")
+    return image
 
 
 def rotation_zyx(roll: float, pitch: float, yaw: float) -> np.ndarray:

@@ -22,7 +22,7 @@ import cv2
 import numpy as np
 
 from auvdock.camera.layout import MarkerLayout, aruco_dictionary
-from auvdock.camera.model import CameraModel, CameraMount, rotation_zyx
+from auvdock.camera.model import CameraModel, CameraMount, gray_image, rotation_zyx
 
 __all__ = [
     "Detection",
@@ -117,15 +117,7 @@ class MarkerDetector:
         list of Detection
             Sorted by id; corners in px.
         """
-        image = np.asarray(image)
-        if image.ndim == 3 and image.shape[2] == 3:
-            image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
-        if image.ndim != 2:
-            raise ValueError(
-                f"image: expected a grayscale (h, w) or BGR (h, w, 3) array, got shape {image.shape}"
-            )
-        if image.dtype != np.uint8:
-            raise ValueError(f"image: expected dtype uint8, got {image.dtype}")
+        image = gray_image(image)
         h, w = image.shape
         if (w, h) != self.camera.image_size:
             raise ValueError(

@@ -61,6 +61,9 @@ __all__ = [
 
 Prediction = Literal["naive", "kinematic", "full"]
 
+#: ``return_status`` of a solve skipped because its parameters were not finite.
+NON_FINITE_INPUT = "non-finite input (state, flow estimate or dock)"
+
 #: Solvers of the MPC problem (``controller.solver.name``, besides ``auto``).
 SOLVERS = ("ipopt", "sqp", "rti")
 
@@ -407,30 +410,29 @@ class DockingMPC:
 
         t0 = time.perf_counter()
         lam_x = lam_g = None
-        try:
-            if not np.all(np.isfinite(p)):
-                # a diverged estimate (or state) would make every solver iteration fail on NaN
-                raise _NonFiniteInputError("non-finite input (state, flow estimate or dock)")
-            with SigintDeferred():
-                if self._rti is not None:
-                    w_opt, ok, ret, iters, fval = self._rti.solve(
-                        w0, p, lbx, ubx, 0.0, 0.0, cold=self._w_prev is None
-                    )
-                else:
-                    sol = self._solver(**args)
-                    stats = self._solver.stats()
-                    ok = bool(stats.get("success", False))
-                    ret = str(stats.get("return_status", ""))
-                    iters = int(stats.get("iter_count", -1))
-                    w_opt = np.asarray(sol["x"]).ravel()
-                    fval = float(sol["f"])
-                    lam_x = np.asarray(sol["lam_x"]).ravel()
-                    lam_g = np.asarray(sol["lam_g"]).ravel()
-            finite = bool(np.all(np.isfinite(w_opt)))
-        except _NonFiniteInputError as e:
-            ok, ret, iters, finite, w_opt, fval = False, str(e), 0, False, None, math.nan
-        except RuntimeError as e:  # CasADi evaluation errors
-            ok, ret, iters, finite, w_opt, fval = False, f"error: {e}", -1, False, None, math.nan
+        if not np.all(np.isfinite(p)):
+            # a diverged estimate (or state) would make every solver iteration fail on NaN
+            ok, ret, iters, finite, w_opt, fval = False, NON_FINITE_INPUT, 0, False, None, math.nan
+        else:
+            try:
+                with SigintDeferred():
+                    if self._rti is not None:
+                        w_opt, ok, ret, iters, fval = self._rti.solve(
+                            w0, p, lbx, ubx, 0.0, 0.0, cold=self._w_prev is None
+                        )
+                    else:
+                        sol = self._solver(**args)
+                        stats = self._solver.stats()
+                        ok = bool(stats.get("success", False))
+                        ret = str(stats.get("return_status", ""))
+                        iters = int(stats.get("iter_count", -1))
+                        w_opt = np.asarray(sol["x"]).ravel()
+                        fval = float(sol["f"])
+                        lam_x = np.asarray(sol["lam_x"]).ravel()
+                        lam_g = np.asarray(sol["lam_g"]).ravel()
+                finite = bool(np.all(np.isfinite(w_opt)))
+            except RuntimeError as e:  # CasADi evaluation errors
+                ok, ret, iters, finite, w_opt, fval = False, f"error: {e}", -1, False, None, math.nan
         solve_time = time.perf_counter() - t0
 
         if ok and finite:
@@ -469,10 +471,6 @@ class DockingMPC:
         R_all = np.asarray(self._rot_map(Xm[:, 3:6].T)).reshape(3, -1, 3)  # [i, k, j] = R_k[i, j]
         X[:, 6:9] += np.einsum("ikj,i->kj", R_all, flow_ned)
         return X
-
-
-class _NonFiniteInputError(Exception):
-    """The solve's parameters are not finite: no solve, the fallback input is used."""
 
 
 class SigintDeferred:
