@@ -16,7 +16,7 @@ from .dock import HeaveDock
 from .mission import Mission
 from .vehicle import Vehicle
 
-__all__ = ["Measurement", "Autopilot"]
+__all__ = ["Measurement", "Autopilot", "build_autopilot"]
 
 
 class Autopilot:
@@ -60,3 +60,11 @@ class Autopilot:
         out.solve_time_s = time.perf_counter() - t0
         self.u_prev = out.thrust.copy()
         return out
+
+
+def build_autopilot(mission: Mission, vehicle: Vehicle, dock: HeaveDock, controller: str | None = None) -> Autopilot:
+    """The autopilot (controller + estimator step) a mission describes; ``controller`` overrides its type.
+
+    The one way every command (sim, compare, sweep, fly, replay) builds its step.
+    """
+    return Autopilot(mission, vehicle, dock, controller)

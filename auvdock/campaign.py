@@ -48,6 +48,7 @@ import h5py
 import numpy as np
 
 from . import __version__
+from .catalog import PAPER_MISSIONS, missions_dir
 from .results import list_runs, open_format, read_run
 
 __all__ = [
@@ -70,8 +71,6 @@ FORMAT = "auvdock-campaign"
 FORMAT_VERSION = 1
 PART_DIR = ".parts"
 
-#: The paper's six cases (section VII), as shipped mission files, in case order.
-PAPER_MISSIONS = ("still", "diagonal", "south", "east_strong", "gyre", "gyre_fast")
 
 #: Columns of the campaign table: name -> kind ("str", "bool", "int", "float").
 TABLE_COLUMNS: dict[str, str] = {
@@ -161,11 +160,8 @@ class Finding:
 
 
 def default_missions_dir() -> Path:
-    """The shipped ``missions/`` directory: ``./missions`` if it exists, else the source tree's."""
-    here = Path.cwd() / "missions"
-    if all((here / f"{m}.yaml").is_file() for m in PAPER_MISSIONS):
-        return here
-    return Path(__file__).resolve().parents[1] / "missions"
+    """The shipped missions folder (installed with the package; :mod:`auvdock.catalog`)."""
+    return missions_dir()
 
 
 def campaign_specs(

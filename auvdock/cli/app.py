@@ -1,0 +1,85 @@
+"""The ``auvdock`` command line (Typer + rich).
+
+Exit status: 0 success; 1 a run finished but did not dock / a command failed at run
+time; 2 bad input (a mission file, an option) -- with ONE line on stderr naming the
+file, the field and the problem, and no traceback.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+from rich.console import Console
+
+from .. import __version__
+from ..mission import Mission, MissionError, load_mission
+
+app = typer.Typer(
+    name="auvdock",
+    help="Dock a BlueROV2 Heavy to a heaving wave-energy-converter dock in ocean currents.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+
+console = Console()
+err_console = Console(stderr=True)
+
+
+def fail_input(message: str) -> None:
+    """Print one line on stderr and exit with status 2 (bad input)."""
+    err_console.print(f"error: {message}", markup=False, highlight=False, soft_wrap=True)
+    raise typer.Exit(code=2)
+
+
+def load_or_exit(path: Path) -> Mission:
+    """Load a mission file, or a shipped mission by name (``gyre``), or exit 2 with one line."""
+    from ..catalog import resolve
+
+    try:
+        return load_mission(resolve(path))
+    except MissionError as e:
+        fail_input(str(e))
+        raise AssertionError("unreachable") from None
+
+
+def _version_callback(value: bool) -> None:
+    if value:
+        console.print(f"auvdock {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _main(
+    version: bool = typer.Option(
+        False, "--version", callback=_version_callback, is_eager=True, help="Print the version and exit."
+    ),
+) -> None:
+    """auvdock: flow-state-estimating MPC docking for underwater vehicles."""
+    from ..codegen import set_reporter
+
+    set_reporter(_compile_notice)
+
+
+def split_list(values: list[str] | None) -> list[str]:
+    out: list[str] = []
+    for v in values or []:
+        out += [x.strip() for x in v.split(",") if x.strip()]
+    return out
+
+
+def controller_list(controllers: list[str] | None) -> list[str]:
+    """``--controllers`` (comma-separated or repeated; default all five), or exit 2 naming the bad one."""
+    from ..controllers import CONTROLLER_NAMES
+
+    ctrls = split_list(controllers) or list(CONTROLLER_NAMES)
+    for c in ctrls:
+        if c not in CONTROLLER_NAMES:
+            fail_input(f"--controllers: unknown controller {c!r} (known: {', '.join(CONTROLLER_NAMES)})")
+    return ctrls
+
+
+def _compile_notice(message: str):
+    """Shown while a solver compiles (first use of a problem)."""
+    return err_console.status(f"[bold]{message}[/bold] - about a minute, once", spinner="dots")

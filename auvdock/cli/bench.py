@@ -1,0 +1,71 @@
+"""``auvdock bench``: per-step solve time per controller x solver."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import typer
+from rich.table import Table
+
+from .app import app, console, controller_list, fail_input, split_list
+
+
+@app.command()
+def bench(
+    cases: list[int] | None = typer.Option(None, "--case", help="Paper case (repeat; default 1, 2 and 6)."),
+    controllers: list[str] | None = typer.Option(
+        None, "--controllers", "-c", help="Controllers, comma-separated or repeated (default: all five)."
+    ),
+    solvers: list[str] | None = typer.Option(
+        None,
+        "--solvers",
+        "-s",
+        help="Solvers: auto, sqp, ipopt; comma-separated or repeated (default: auto).",
+    ),
+    timeout: float | None = typer.Option(None, "--timeout", min=0.0, help="Simulated-time limit per run, s."),
+    json_out: bool = typer.Option(False, "--json", help="One JSON object per run on stdout, nothing else."),
+) -> None:
+    """Per-step solve time (median, p95, p99, max), real-time factor and outcome per controller x solver."""
+    import json
+
+    from ..bench import DEFAULT_CASES, bench_rows, machine_line
+    from ..mission import SOLVER_NAMES
+
+    ctrls = controller_list(controllers)
+    solv = split_list(solvers) or ["auto"]
+    for s_ in solv:
+        if s_ not in SOLVER_NAMES:
+            fail_input(f"--solvers: unknown solver {s_!r} (known: {', '.join(SOLVER_NAMES)})")
+    case_list = list(cases or DEFAULT_CASES)
+    for c in case_list:
+        if not 1 <= c <= 6:
+            fail_input(f"--case: {c} is not one of the paper's cases 1..6")
+
+    if json_out:
+
+        def emit(r: dict[str, Any]) -> None:  # strict JSON: NaN (not docked) as null
+            clean = {k: (None if isinstance(v, float) and v != v else v) for k, v in r.items()}
+            print(json.dumps(clean), flush=True)
+
+        bench_rows(case_list, ctrls, solv, timeout_s=timeout, on_row=emit)
+        return
+    console.print(f"[bold]bench[/bold] on {machine_line()}")
+    t = Table(title="per controller step, ms (full closed-loop runs)")
+    for h in ("case", "controller", "solver", "docked", "time to dock", "median", "p95", "p99", "max", "RTF",
+              "failures"):  # fmt: skip
+        t.add_column(h, justify="right" if h not in ("controller", "solver") else "left")
+
+    def add(r: dict[str, Any]) -> None:
+        ttd = f"{r['time_to_dock_s']:.2f} s" if r["docked"] else "timeout"
+        console.print(
+            f"  case {r['case']} {r['controller']:<10} {r['solver']:<5} {ttd:>9}"
+            f"  median {r['median_ms']:6.2f} ms  p99 {r['p99_ms']:6.2f} ms"
+        )
+        t.add_row(
+            str(r["case"]), r["controller"], r["solver"], "yes" if r["docked"] else "no", ttd,
+            f"{r['median_ms']:.2f}", f"{r['p95_ms']:.2f}", f"{r['p99_ms']:.2f}", f"{r['max_ms']:.2f}",
+            f"{r['real_time_factor']:.1f}", str(r["solver_failures"]),
+        )  # fmt: skip
+
+    bench_rows(case_list, ctrls, solv, timeout_s=timeout, on_row=add)
+    console.print(t)

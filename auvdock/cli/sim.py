@@ -1,0 +1,180 @@
+"""``auvdock sim`` and ``auvdock plot``: one closed-loop run, its summary and plots."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import typer
+import yaml
+from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from ..mission import CONTROLLER_TYPES, MissionError
+from .app import app, console, err_console, fail_input, load_or_exit
+
+if TYPE_CHECKING:
+    from ..simulation import Progress as SimProgress
+
+
+def _summary_table(title: str, outcome: dict[str, Any]) -> Table:
+    def f(key: str, scale: float = 1.0, fmt: str = "{:.3f}", unit: str = "") -> str:
+        v = outcome.get(key)
+        if v is None or (isinstance(v, float) and not np.isfinite(v)):
+            return "-"
+        return fmt.format(v * scale) + unit
+
+    t = Table(title=title, show_header=False)
+    t.add_column("figure", style="cyan")
+    t.add_column("value")
+    docked = bool(outcome.get("docked"))
+    t.add_row("docked", "[green]yes[/green]" if docked else f"[red]no[/red] ({outcome.get('reason', '')})")
+    t.add_row(
+        "time to dock",
+        f("time_to_dock_s", fmt="{:.2f}", unit=" s")
+        if docked
+        else f"timeout {outcome.get('end_time_s', 0):.0f} s",
+    )
+    t.add_row("path length", f("path_length_m", unit=" m"))
+    t.add_row("closest approach", f("closest_approach_m", unit=" m"))
+    t.add_row("contact speed", f("contact_speed_m_s", unit=" m/s"))
+    t.add_row(
+        "heading error at contact", f("heading_error_rad", scale=180 / np.pi, fmt="{:.2f}", unit=" deg")
+    )
+    if "flow_rmse_m_s" in outcome:
+        t.add_row("flow estimate RMSE", f("flow_rmse_m_s", fmt="{:.4f}", unit=" m/s"))
+        t.add_row("final flow estimate error", f("flow_final_error_m_s", fmt="{:.4f}", unit=" m/s"))
+    t.add_row(
+        "solve time median / p95 / max",
+        f"{f('solve_time_median_s', 1e3, '{:.2f}')} / {f('solve_time_p95_s', 1e3, '{:.2f}')} / "
+        f"{f('solve_time_max_s', 1e3, '{:.2f}')} ms",
+    )
+    t.add_row(
+        "solver trouble (steps)", f"{outcome.get('solver_failures', 0)} ({outcome.get('status_counts', '')})"
+    )
+    t.add_row("wall time", f("wall_time_s", fmt="{:.2f}", unit=" s"))
+    t.add_row("real-time factor", f("real_time_factor", fmt="{:.1f}", unit=" x"))
+    return t
+
+
+@app.command()
+def sim(
+    mission: Path = typer.Argument(..., help="Mission YAML file."),
+    controller: str | None = typer.Option(
+        None,
+        "--controller",
+        "-c",
+        help="naive | kinematic | oracle | sequential | optimized (default: the mission's).",
+    ),
+    out: Path | None = typer.Option(
+        None, "--out", "-o", help="Output directory (default: the mission's output.dir)."
+    ),
+    no_plots: bool = typer.Option(False, "--no-plots", help="Do not draw the PNG plots."),
+    seed: int | None = typer.Option(None, "--seed", help="Random seed (default: the mission's)."),
+    timeout: float | None = typer.Option(
+        None, "--timeout", help="Simulated-time limit in s (default: the mission's)."
+    ),
+) -> None:
+    """Run one closed-loop docking simulation: HDF5 results, summary table and plots."""
+    from ..plots import plot_run
+    from ..results import read_run
+    from ..simulation import simulate
+
+    m = load_or_exit(mission)
+    if controller is not None and controller not in CONTROLLER_TYPES:
+        fail_input(f"--controller: unknown controller {controller!r} (known: {', '.join(CONTROLLER_TYPES)})")
+    if timeout is not None and not (timeout > 0 and np.isfinite(timeout)):
+        fail_input(f"--timeout: must be a positive number of seconds (got {timeout})")
+    if seed is not None:
+        if seed < 0:
+            fail_input(f"--seed: must be >= 0 (got {seed})")
+        m = m.with_updates(seed=seed)
+    if controller is not None:
+        m = m.with_updates(**{"controller.type": controller})
+    name = m.controller.type
+    out_dir = out if out is not None else Path(m.output.dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    h5 = out_dir / f"{m.name}_{name}.h5"
+    limit = m.docking.timeout_s if timeout is None else timeout
+
+    from ..controllers import resolve_solver
+
+    solver = resolve_solver(m.controller.solver.name, name)
+    console.print(
+        f"[bold]{m.name}[/bold]: {m.build_flow().describe()}; controller [bold]{name}[/bold] "
+        f"(N = {m.controller.horizon_steps}, dt = {m.controller.dt_s} s, {solver})"
+    )
+    from ..autopilot import Autopilot
+
+    # build (and, the first time, compile) the controller before the progress display starts
+    ap = Autopilot(m, m.build_vehicle(), m.build_dock(), name)
+    with Progress(
+        SpinnerColumn(),
+        TextColumn("[progress.description]{task.description}"),
+        BarColumn(),
+        TextColumn("t = {task.completed:5.1f} / {task.total:.0f} s"),
+        TextColumn("{task.fields[info]}"),
+        TimeElapsedColumn(),
+        console=console,
+        transient=False,
+    ) as bar:
+        task = bar.add_task("simulating", total=limit, info="")
+        last = [0.0]
+
+        def on_step(p: SimProgress) -> None:
+            now = time.monotonic()
+            if now - last[0] > 0.1 or p.t + m.controller.dt_s >= limit:
+                last[0] = now
+                bar.update(
+                    task,
+                    completed=p.t,
+                    info=f"distance {p.distance_m:6.3f} m  solve {p.solve_time_s * 1e3:5.1f} ms",
+                )
+
+        try:
+            summary = simulate(m, out=h5, progress=on_step, timeout_s=timeout, autopilot=ap)
+        except KeyboardInterrupt:
+            err_console.print(f"interrupted: the steps so far are in {h5} (complete = False)")
+            raise typer.Exit(code=130) from None
+        bar.update(task, completed=summary.outcome["end_time_s"])
+
+    console.print(_summary_table(f"{m.name} / {name}", summary.outcome))
+    console.print(f"results: {h5}")
+    if not no_plots:
+        paths = plot_run(read_run(h5), out_dir, prefix=f"{m.name}_{name}_", flow_field=m.build_flow())
+        console.print("plots: " + ", ".join(str(p) for p in paths))
+    if not summary.docked:
+        raise typer.Exit(code=1)
+
+
+@app.command()
+def plot(
+    results: Path = typer.Argument(..., help="Results file written by auvdock sim."),
+    out: Path | None = typer.Option(
+        None, "--out", "-o", help="Directory for the PNGs (default: next to the file)."
+    ),
+) -> None:
+    """Redraw the plots of a results file from the file alone."""
+    from ..mission import parse_mission
+    from ..plots import plot_run
+    from ..results import read_run
+
+    if not results.is_file():
+        fail_input(f"{results}: file not found")
+    try:
+        r = read_run(results)
+    except (ValueError, OSError) as e:
+        fail_input(str(e) if str(results) in str(e) else f"{results}: {e}")
+        raise AssertionError("unreachable") from None
+    flow = None
+    try:
+        flow = parse_mission(yaml.safe_load(r.mission_yaml), f"{results}:mission_yaml").build_flow()
+    except (MissionError, yaml.YAMLError):
+        err_console.print("note: the stored mission could not be read; drawing the recorded flow instead")
+    out_dir = out if out is not None else results.parent
+    out_dir.mkdir(parents=True, exist_ok=True)
+    paths = plot_run(r, out_dir, prefix=f"{results.stem}_", flow_field=flow)
+    for p in paths:
+        console.print(str(p))

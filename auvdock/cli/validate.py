@@ -1,0 +1,74 @@
+"""``auvdock validate`` and ``auvdock missions``: check a mission; list the shipped ones."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import typer
+from rich.table import Table
+
+from ..mission import Mission
+from .app import app, console, load_or_exit
+
+
+def _flatten(prefix: str, value: Any, rows: list[tuple[str, str]]) -> None:
+    if isinstance(value, dict):
+        if not value:
+            rows.append((prefix, "{}"))
+        for k, v in value.items():
+            _flatten(f"{prefix}.{k}" if prefix else str(k), v, rows)
+    else:
+        rows.append((prefix, str(value)))
+
+
+def _describe(field_path: str) -> str:
+    """The schema description of a dotted field, if any."""
+    model: Any = Mission
+    info = None
+    for part in field_path.split("."):
+        fields = getattr(model, "model_fields", None)
+        if not fields or part not in fields:
+            return ""
+        info = fields[part]
+        model = info.annotation
+    return (info.description or "") if info is not None else ""
+
+
+@app.command()
+def validate(mission: Path = typer.Argument(..., help="Mission YAML file.")) -> None:
+    """Check a mission file and print it with every default filled in."""
+    m = load_or_exit(mission)
+    rows: list[tuple[str, str]] = []
+    _flatten("", m.resolved(), rows)
+    table = Table(title=f"mission {m.name} ({mission})", show_lines=False)
+    table.add_column("field", style="cyan", no_wrap=True)
+    table.add_column("value")
+    table.add_column("meaning / unit", style="dim")
+    for k, v in rows:
+        table.add_row(k, v, _describe(k))
+    console.print(table)
+    flow = m.build_flow()
+    dock = m.build_dock()
+    console.print(f"flow: {flow.describe()}")
+    console.print(
+        f"dock: at {tuple(round(c, 3) for c in dock.position_ned_m)} m NED, heave "
+        f"{dock.amplitude_m:g} m at {dock.angular_frequency_rad_s:g} rad/s ({dock.frequency_hz:.4g} Hz)"
+    )
+    console.print("[green]valid[/green]")
+
+
+@app.command()
+def missions() -> None:
+    """List the missions and sweeps shipped with auvdock (usable by name from any folder)."""
+    from ..catalog import missions_dir, shipped_missions, shipped_sweeps
+
+    for title, files in (("missions", shipped_missions()), ("sweeps", shipped_sweeps())):
+        t = Table(title=f"shipped {title}", show_lines=False)
+        t.add_column("name", style="cyan", no_wrap=True)
+        t.add_column("what it is")
+        for f in files:
+            t.add_row(f.name, f.summary)
+        console.print(t)
+    console.print(f"folder: {missions_dir()}")
+    console.print("use a name where a file is expected, e.g. auvdock sim gyre (a file of that name wins)")
