@@ -62,7 +62,9 @@ class Autopilot:
         return out
 
 
-def build_autopilot(mission: Mission, vehicle: Vehicle, dock: HeaveDock, controller: str | None = None) -> Autopilot:
+def build_autopilot(
+    mission: Mission, vehicle: Vehicle, dock: HeaveDock, controller: str | None = None
+) -> Autopilot:
     """The autopilot (controller + estimator step) a mission describes; ``controller`` overrides its type.
 
     The one way every command (sim, compare, sweep, fly, replay) builds its step.

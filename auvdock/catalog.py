@@ -61,9 +61,7 @@ def _summary(path: Path) -> str:
 
 def shipped_missions() -> list[ShippedFile]:
     """Every shipped mission, sorted by name."""
-    return [
-        ShippedFile(p.stem, p, "mission", _summary(p)) for p in sorted(missions_dir().glob("*.yaml"))
-    ]
+    return [ShippedFile(p.stem, p, "mission", _summary(p)) for p in sorted(missions_dir().glob("*.yaml"))]
 
 
 def shipped_sweeps() -> list[ShippedFile]:

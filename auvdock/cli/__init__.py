@@ -25,6 +25,7 @@ import sys
 # the commands are registered in this order (the order of --help)
 # isort: off
 from . import validate, sim, campaign, fly, bench, camera, cache  # noqa: F401
+
 # isort: on
 from .app import app, err_console
 
