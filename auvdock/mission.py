@@ -23,8 +23,6 @@ import numpy as np
 import yaml
 from pydantic import (
     AfterValidator,
-    BaseModel,
-    ConfigDict,
     Field,
     ValidationError,
     field_validator,
@@ -33,6 +31,7 @@ from pydantic import (
 
 from .dock import HeaveDock
 from .flow import ConstantCurrent, DoubleGyre, FlowField, StillWater, flow_case, flow_case_names
+from .schema import Strict, first_error
 from .vehicle import Vehicle, load_vehicle, preset_names
 from .vehicle.params import VehicleParamsError
 
@@ -65,10 +64,6 @@ class MissionError(Exception):
         super().__init__(where + problem)
 
 
-class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, validate_default=True)
-
-
 def _fixed_len(n: int):
     def check(v: list[Any]) -> list[Any]:
         if len(v) != n:
@@ -85,7 +80,7 @@ Vec12NonNeg = Annotated[list[NonNegFloat], _fixed_len(12)]
 Vec3Pos = Annotated[list[PosFloat], _fixed_len(3)]
 
 
-class VehicleSpec(_Strict):
+class VehicleSpec(Strict):
     """Which vehicle: a shipped preset or a parameter file, plus overrides."""
 
     preset: str | None = Field(
@@ -118,7 +113,7 @@ class VehicleSpec(_Strict):
         return self
 
 
-class FlowSpec(_Strict):
+class FlowSpec(Strict):
     """The water: a paper case by name, or an explicit field."""
 
     case: str | None = Field(default=None, description="case1..case6 or an alias (still, gyre, ...)")
@@ -179,7 +174,7 @@ class FlowSpec(_Strict):
         return DoubleGyre(float(self.amplitude_m_s), float(self.period_h) * 3600.0, float(self.epsilon))
 
 
-class HeaveSpec(_Strict):
+class HeaveSpec(Strict):
     """Dock heave z(t) = z0 + A sin(w t + phase) (paper eq. 7)."""
 
     amplitude_m: NonNegFloat = Field(default=0.5, description="heave amplitude A, m")
@@ -204,7 +199,7 @@ class HeaveSpec(_Strict):
         return self
 
 
-class DockSpec(_Strict):
+class DockSpec(Strict):
     """The dock (WEC) and its motion."""
 
     position_ned_m: Vec3 = Field(default=[2.0, 3.0, 5.0], description="mean position (north, east, down), m")
@@ -255,7 +250,7 @@ class DockSpec(_Strict):
         )
 
 
-class StartSpec(_Strict):
+class StartSpec(Strict):
     """Initial vehicle state."""
 
     state: Vec12 = Field(
@@ -264,7 +259,7 @@ class StartSpec(_Strict):
     )
 
 
-class WeightsSpec(_Strict):
+class WeightsSpec(Strict):
     """MPC weights of cost (10): stage Q and terminal P on the 12-state error, R on input rate."""
 
     Q: Vec12NonNeg = Field(default=list(_DEFAULT_Q), description="12 diagonal stage weights")
@@ -281,7 +276,7 @@ class WeightsSpec(_Strict):
         return v
 
 
-class BoundsSpec(_Strict):
+class BoundsSpec(Strict):
     """State bounds of the MPC (parameters.md section 4)."""
 
     relative_velocity_max_m_s: Vec3Pos = Field(
@@ -290,7 +285,7 @@ class BoundsSpec(_Strict):
     angular_rate_max_rad_s: Vec3Pos = Field(default=[0.25, 0.25, 0.25], description="|p|, |q|, |r|, rad/s")
 
 
-class SolverSpec(_Strict):
+class SolverSpec(Strict):
     """Numerical solver of the MPC problem."""
 
     name: Literal["auto", "ipopt", "sqp", "rti"] = Field(
@@ -305,7 +300,7 @@ class SolverSpec(_Strict):
     tol: PosFloat = Field(default=1e-6, description="convergence tolerance")
 
 
-class ControllerSpec(_Strict):
+class ControllerSpec(Strict):
     """The docking controller (paper section V)."""
 
     type: Literal["naive", "kinematic", "oracle", "sequential", "optimized"] = Field(default="oracle")
@@ -330,7 +325,7 @@ class ControllerSpec(_Strict):
     )
 
 
-class EstimatorSpec(_Strict):
+class EstimatorSpec(Strict):
     """Kalman filter on the body-frame flow (parameters.md section 5)."""
 
     prior_flow_ned_m_s: Vec3 = Field(default=[0.0, 0.0, 0.0], description="prior flow estimate, m/s")
@@ -345,7 +340,7 @@ class EstimatorSpec(_Strict):
     )
 
 
-class SensorsSpec(_Strict):
+class SensorsSpec(Strict):
     """Simulated sensor noise (standard deviations); no velocity over ground (no DVL)."""
 
     position_std_m: NonNegFloat = Field(default=0.002, description="pose position noise, m")
@@ -359,20 +354,20 @@ class SensorsSpec(_Strict):
     )
 
 
-class DockingSpec(_Strict):
+class DockingSpec(Strict):
     """When a run ends."""
 
     tolerance_m: PosFloat = Field(default=0.05, description="docked when within this distance of the dock, m")
     timeout_s: PosFloat = Field(default=75.0, description="give up after this simulated time, s")
 
 
-class SimulationSpec(_Strict):
+class SimulationSpec(Strict):
     """Truth simulation settings."""
 
     substeps: Annotated[int, Field(ge=1)] = Field(default=4, description="RK4 substeps per control period")
 
 
-class GeofenceSpec(_Strict):
+class GeofenceSpec(Strict):
     """fly: abort when the vehicle leaves this region (mission frame)."""
 
     max_distance_m: PosFloat = Field(default=6.0, description="largest horizontal distance from the start, m")
@@ -380,7 +375,7 @@ class GeofenceSpec(_Strict):
     max_depth_m: PosFloat = Field(default=10.0, description="deepest allowed depth, m")
 
 
-class FlySpec(_Strict):
+class FlySpec(Strict):
     """Flying a real vehicle (auvdock fly): telemetry and safety limits."""
 
     telemetry_rate_hz: PosFloat = Field(default=25.0, description="requested telemetry rate, Hz")
@@ -393,7 +388,7 @@ class FlySpec(_Strict):
     geofence: GeofenceSpec = Field(default_factory=GeofenceSpec)
 
 
-class CameraMountSpec(_Strict):
+class CameraMountSpec(Strict):
     """Where the camera sits on the vehicle."""
 
     position_body_m: Vec3 = Field(default=[0.2, 0.0, 0.0], description="camera centre in {b}, m")
@@ -403,7 +398,7 @@ class CameraMountSpec(_Strict):
     )
 
 
-class SyntheticCameraSpec(_Strict):
+class SyntheticCameraSpec(Strict):
     """camera.source: synthetic -- rendered views of the dock's markers (rehearsal, tests)."""
 
     rate_hz: PosFloat = Field(default=15.0, description="frame rate, Hz")
@@ -419,7 +414,7 @@ class SyntheticCameraSpec(_Strict):
     )
 
 
-class CameraSpec(_Strict):
+class CameraSpec(Strict):
     """fly with dock.source: camera -- the camera, its calibration and lost-tracking limits."""
 
     source: str = Field(
@@ -459,13 +454,13 @@ class CameraSpec(_Strict):
         return self
 
 
-class OutputSpec(_Strict):
+class OutputSpec(Strict):
     """Where results go."""
 
     dir: str = Field(default="runs", description="output directory (relative to the working directory)")
 
 
-class Mission(_Strict):
+class Mission(Strict):
     """A complete, validated mission."""
 
     name: str = Field(description="mission name, used in file names")
@@ -573,41 +568,6 @@ class Mission(_Strict):
         return m
 
 
-def _field_path(loc: tuple[Any, ...]) -> str:
-    return ".".join(str(p) for p in loc) if loc else "(top level)"
-
-
-def _allowed_keys(loc: tuple[Any, ...]) -> list[str]:
-    model: Any = Mission
-    for part in loc[:-1]:
-        if isinstance(part, int):
-            continue
-        f = getattr(model, "model_fields", {}).get(part)
-        if f is None:
-            return []
-        model = f.annotation
-    return list(getattr(model, "model_fields", {}))
-
-
-def _problem(err: dict[str, Any]) -> str:
-    kind = err.get("type", "")
-    msg = str(err.get("msg", "invalid"))
-    if kind == "extra_forbidden":
-        allowed = _allowed_keys(tuple(err.get("loc", ())))
-        return "unknown key" + (f" (allowed: {', '.join(allowed)})" if allowed else "")
-    if kind == "finite_number":
-        return "must be a finite number (no NaN or inf)"
-    if msg.startswith("Value error, "):
-        msg = msg[len("Value error, ") :]
-    elif msg.startswith("Assertion failed, "):
-        msg = msg[len("Assertion failed, ") :]
-    else:
-        msg = msg[0].lower() + msg[1:] if msg else msg
-    if "input" in err and kind not in ("missing",) and not isinstance(err["input"], (dict, list)):
-        msg += f" (got {err['input']!r})"
-    return msg
-
-
 def parse_mission(data: Any, source: str | Path = "<mission>") -> Mission:
     """Validate already-parsed mission data; raises :class:`MissionError`."""
     if not isinstance(data, dict):
@@ -615,11 +575,7 @@ def parse_mission(data: Any, source: str | Path = "<mission>") -> Mission:
     try:
         m = Mission.model_validate(data)
     except ValidationError as e:
-        err = e.errors()[0]
-        loc = tuple(err.get("loc", ()))
-        # drop pydantic's internal tags for function validators
-        loc = tuple(p for p in loc if not (isinstance(p, str) and p.startswith("function-")))
-        raise MissionError(source, _field_path(loc), _problem(err)) from None
+        raise MissionError(source, *first_error(Mission, e)) from None
     if isinstance(source, Path) or (isinstance(source, str) and source != "<mission>"):
         m._source = Path(source)
     # a vehicle file and its overrides are checked now, so that bad input fails early
