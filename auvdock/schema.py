@@ -131,3 +131,29 @@ def first_error(model: type[BaseModel], exc: ValidationError) -> tuple[str, str]
         shown = shown + [err.get("ctx", {}).get("discriminator", "type").strip("'")]
     path = ".".join(str(p) for p in shown) if shown else "(top level)"
     return path, _problem(model, err)
+
+
+def field_at(model: type[BaseModel], path: str) -> tuple[Any, str | None]:
+    """The annotation of the dotted field ``path`` of ``model`` and a problem (None if it exists).
+
+    A section that is a union of models (the controller settings, by ``type``) has a field
+    when any of its members has it.  A free-form mapping (``dict``) accepts any key below it
+    (returned annotation: ``dict``).  The problem names what the section does have, e.g.
+    ``unknown field (controller has: type, horizon_steps, ...)``.
+    """
+    parts = path.split(".")
+    current: Any = model
+    for i, part in enumerate(parts):
+        where = ".".join(parts[:i]) or model.__name__.lower()
+        members = _union_members(current) or [current]
+        fields: dict[str, Any] = {}
+        for m in members:
+            fields.update(getattr(m, "model_fields", {}))
+        if not fields:
+            if typing.get_origin(current) is dict:
+                return dict, None
+            return None, f"{'.'.join(parts[:i])} is a value, not a section: vary it whole"
+        if part not in fields:
+            return None, f"unknown field ({where} has: {', '.join(fields)})"
+        current = unwrap(fields[part].annotation)
+    return current, None
