@@ -42,9 +42,9 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from .geometry import skew
 from .vehicle import Vehicle
 from .vehicle.model import rk4
-from .vehicle.model import skew_np as skew
 
 __all__ = [
     "FlowKalmanFilter",

@@ -25,6 +25,7 @@ import numpy as np
 
 from .autopilot import Autopilot
 from .controllers import Measurement, resolve_solver
+from .geometry import wrap_angle
 from .mission import Mission
 from .results import STATUS_NAMES, STATUS_OK, RunWriter
 
@@ -97,10 +98,6 @@ class SensorModel:
         return out
 
 
-def _wrap(a: float) -> float:
-    return (a + math.pi) % (2 * math.pi) - math.pi
-
-
 def run_outcome(
     *,
     docked: bool,
@@ -126,7 +123,7 @@ def run_outcome(
     if docked and contact_state is not None and dock_velocity is not None:
         v_ned = rotation(contact_state[3:6]) @ contact_state[6:9]
         contact_speed = float(np.linalg.norm(v_ned - dock_velocity))
-        heading_err = _wrap(float(contact_state[5]) - dock_heading)
+        heading_err = wrap_angle(float(contact_state[5]) - dock_heading)
     return {
         "docked": bool(docked),
         "reason": reason,

@@ -27,7 +27,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from auvdock.camera.model import rotation_zyx
+from auvdock.geometry import rotation_zyx
 
 __all__ = [
     "DICTIONARIES",

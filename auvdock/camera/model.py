@@ -27,6 +27,8 @@ import cv2
 import numpy as np
 import yaml
 
+from ..geometry import rotation_zyx
+
 __all__ = [
     "gray_image",
     "R_BC_DEFAULT",
@@ -57,23 +59,6 @@ def gray_image(image: Any) -> np.ndarray:
     if image.dtype != np.uint8:
         raise ValueError(f"image: expected dtype uint8, got {image.dtype}")
     return image
-
-
-def rotation_zyx(roll: float, pitch: float, yaw: float) -> np.ndarray:
-    """ZYX Euler rotation ``R = Rz(yaw) Ry(pitch) Rx(roll)``, shape (3, 3).
-
-    With the vehicle attitude (rad) this is ``R_nb``, mapping body vectors to NED.
-    """
-    cr, sr = math.cos(roll), math.sin(roll)
-    cp, sp = math.cos(pitch), math.sin(pitch)
-    cy, sy = math.cos(yaw), math.sin(yaw)
-    return np.array(
-        [
-            [cy * cp, -sy * cr + cy * sp * sr, sy * sr + cy * cr * sp],
-            [sy * cp, cy * cr + sr * sp * sy, -cy * sr + sp * sy * cr],
-            [-sp, cp * sr, cp * cr],
-        ]
-    )
 
 
 def _float_array(value: Any, shape: tuple[int, ...], name: str) -> np.ndarray:

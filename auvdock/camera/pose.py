@@ -22,7 +22,8 @@ import cv2
 import numpy as np
 
 from auvdock.camera.layout import MarkerLayout, aruco_dictionary
-from auvdock.camera.model import CameraModel, CameraMount, gray_image, rotation_zyx
+from auvdock.camera.model import CameraModel, CameraMount, gray_image
+from auvdock.geometry import rotation_zyx, wrap_angle
 
 __all__ = [
     "Detection",
@@ -33,11 +34,6 @@ __all__ = [
     "relative_pose_truth",
     "wrap_angle",
 ]
-
-
-def wrap_angle(angle: float) -> float:
-    """Angle wrapped to [-pi, pi), rad."""
-    return float((angle + math.pi) % (2.0 * math.pi) - math.pi)
 
 
 def _yaw_of(R_bd: np.ndarray) -> float:

@@ -34,8 +34,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..dock import HeaveDock
+from ..geometry import rotation_zyx
 from .layout import MarkerLayout
-from .model import CameraModel, CameraMount, camera_from_dock, rotation_zyx
+from .model import CameraModel, CameraMount, camera_from_dock
 from .pose import MarkerDetector, estimate_dock_pose
 from .render import render_view
 from .video import Frame, LatestFrameGrabber

@@ -442,9 +442,7 @@ class DockingMPC:
             self._plan_x = self._from_model_states(w_opt[self._ix], flow)
             self._plan_age = 0
             thrust = np.clip(self._plan_u[0], self.u_min, self.u_max)
-            return MPCResult(
-                thrust, STATUS_OK, solve_time, iters, self._plan_x, self._plan_u, fval, ret
-            )
+            return MPCResult(thrust, STATUS_OK, solve_time, iters, self._plan_x, self._plan_u, fval, ret)
 
         # fallback: next input of the last good plan, else zero thrust
         status = STATUS_NOT_CONVERGED if finite else STATUS_FAILED

@@ -35,12 +35,12 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from ..geometry import skew
 from .params import VehicleParams
 from .thrusters import allocation_matrix
 
 __all__ = [
     "Smtrx",
-    "skew_np",
     "Rzyx",
     "Tzyx",
     "Jeta",
@@ -130,18 +130,13 @@ def gvect(W: float, B: float, theta: Sym, phi: Sym, r_bg: np.ndarray, r_bb: np.n
     )
 
 
-def skew_np(a: np.ndarray) -> np.ndarray:
-    """S(a) as a numpy 3x3 array, for numeric code outside CasADi (``S(a) b = a x b``)."""
-    return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
-
-
 def rigid_body_mass(m: float, r_g: np.ndarray, I_g: np.ndarray) -> np.ndarray:
     """Rigid-body mass matrix M_RB (6x6) about the body origin (Fossen eq. 3.44).
 
     ``I_g`` are the principal inertias (kg m^2) about axes through the CG; the inertia
     about the origin follows from the parallel-axis theorem, ``I_o = I_g - m S(r_g)^2``.
     """
-    S = skew_np(np.asarray(r_g, dtype=float))
+    S = skew(np.asarray(r_g, dtype=float))
     I_o = np.diag(I_g) - m * S @ S
     return np.block([[m * np.eye(3), -m * S], [m * S, I_o]])
 
