@@ -1,8 +1,8 @@
-"""The one controller-and-estimator step that serves ``sim``, ``compare`` and ``fly``.
+"""The one controller-and-estimator step that serves ``sim``, ``compare``, ``sweep`` and ``fly``.
 
 Only where measurements come from (the truth simulator or the vehicle's telemetry) and
 where thrust commands go (the simulator or MAVLink) differ between them; everything in
-between is :meth:`Autopilot.step`.
+between is :meth:`Autopilot.step`.  :func:`build_autopilot` builds it from a mission.
 """
 
 from __future__ import annotations
@@ -11,37 +11,56 @@ import time
 
 import numpy as np
 
-from .controllers import Controller, ControlOutput, Measurement, build_controller
+from .controllers import Controller, ControlOutput, Measurement, build_controller, resolve_solver
+from .controllers.registry import CONTROLLERS
+from .controllers.settings import MPCSettings
 from .dock import HeaveDock
+from .estimator import EstimatorSettings
 from .mission import Mission
+from .sensors import SensorSettings
 from .vehicle import Vehicle
 
 __all__ = ["Measurement", "Autopilot", "build_autopilot"]
 
 
 class Autopilot:
-    """Controller (+ estimator) for one run.  Build once, call :meth:`step` every dt.
+    """Controller (+ estimator) for one run.  Build once, call :meth:`step` every period.
 
     Parameters
     ----------
-    mission : Mission
-        The mission (controller settings, estimator settings).
+    settings : MPCSettings
+        The controller's settings (its ``type`` picks it from the registry).
     vehicle, dock : Vehicle, HeaveDock
         The vehicle model and the dock whose motion is known (Assumption 2).
-    controller : str, optional
-        Override of ``mission.controller.type``.
+    estimator, sensors : EstimatorSettings, SensorSettings, optional
+        The flow estimator's settings and the sensor noise it accounts for.
+
+    Attributes
+    ----------
+    build_time_s : float
+        Wall time spent building the controller (solver construction and, on first use
+        of a problem, compiling it), s.  Kept out of a run's ``wall_time_s``.
     """
 
     def __init__(
-        self, mission: Mission, vehicle: Vehicle, dock: HeaveDock, controller: str | None = None
+        self,
+        settings: MPCSettings,
+        vehicle: Vehicle,
+        dock: HeaveDock,
+        estimator: EstimatorSettings | None = None,
+        sensors: SensorSettings | None = None,
     ) -> None:
-        self.mission = mission
+        t0 = time.perf_counter()
+        self.settings = settings
         self.vehicle = vehicle
         self.dock = dock
-        self.controller: Controller = build_controller(mission, vehicle, dock, controller)
+        self.controller: Controller = build_controller(settings, vehicle, dock, estimator, sensors)
         self.name = self.controller.name
-        self.dt = mission.controller.dt_s
-        self.u_prev = np.zeros(8)
+        self.dt = settings.dt_s
+        self.solver = resolve_solver(settings.solver.name, self.name)
+        self.reads_true_flow = CONTROLLERS[self.name].reads_true_flow
+        self.u_prev = np.zeros(vehicle.n_thrusters)
+        self.build_time_s = time.perf_counter() - t0
 
     @property
     def extra_series(self) -> dict[str, tuple[int, ...]]:
@@ -51,11 +70,13 @@ class Autopilot:
     def reset(self) -> None:
         """Start a new run."""
         self.controller.reset()
-        self.u_prev = np.zeros(8)
+        self.u_prev = np.zeros(self.vehicle.n_thrusters)
 
     def step(self, meas: Measurement) -> ControlOutput:
-        """One control step: estimate, solve, and return the thrust to hold for dt."""
+        """One control step: estimate, solve, and return the thrust to hold for one period."""
         t0 = time.perf_counter()
+        if not self.reads_true_flow:
+            meas = Measurement(meas.t, meas.state, None, meas.sensors)
         out = self.controller.step(meas, self.u_prev)
         out.solve_time_s = time.perf_counter() - t0
         self.u_prev = out.thrust.copy()
@@ -65,8 +86,9 @@ class Autopilot:
 def build_autopilot(
     mission: Mission, vehicle: Vehicle, dock: HeaveDock, controller: str | None = None
 ) -> Autopilot:
-    """The autopilot (controller + estimator step) a mission describes; ``controller`` overrides its type.
+    """The autopilot a mission describes; ``controller`` overrides its type (shared settings kept).
 
     The one way every command (sim, compare, sweep, fly, replay) builds its step.
     """
-    return Autopilot(mission, vehicle, dock, controller)
+    m = mission if controller is None else mission.with_controller(controller)
+    return Autopilot(m.controller, vehicle, dock, m.estimator, m.sensors)

@@ -38,15 +38,21 @@ small so that another filter can replace this one.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Annotated
 
 import casadi as ca
 import numpy as np
+from pydantic import Field
 
 from .geometry import skew
+from .schema import Strict
 from .vehicle import Vehicle
 from .vehicle.model import rk4
+from .vehicle.state import ATT, LIN, NX
 
 __all__ = [
+    "EstimatorSettings",
+    "gramian_step",
     "FlowKalmanFilter",
     "FlowEstimator",
     "EstimatorStep",
@@ -74,6 +80,47 @@ def flow_transition(nu2, dt: float, lib=np):
         eye = ca.DM.eye(3)
     A2 = A @ A
     return eye + A + A2 / 2.0 + A2 @ A / 6.0 + A2 @ A2 / 24.0
+
+
+class EstimatorSettings(Strict):
+    """The flow Kalman filter's settings (parameters.md section 5)."""
+
+    prior_flow_ned_m_s: Annotated[list[float], Field(min_length=3, max_length=3)] = Field(
+        default=[0.0, 0.0, 0.0], description="prior flow estimate, m/s"
+    )
+    prior_std_m_s: Annotated[float, Field(gt=0)] = Field(
+        default=3.0, description="prior standard deviation per axis, m/s (contains the 2 m/s of case 4)"
+    )
+    process_noise_m2_s2: Annotated[float, Field(ge=0)] = Field(
+        default=1e-12, description="Q_f per axis per step, (m/s)^2"
+    )
+    accel_noise_var: Annotated[float, Field(gt=0)] = Field(
+        default=2.029e-5, description="R: accelerometer variance, (m/s^2)^2"
+    )
+    depth_rate_noise_var: Annotated[float, Field(gt=0)] = Field(
+        default=2e-6, description="R: depth-rate variance, (m/s)^2"
+    )
+    forgetting_factor: Annotated[float, Field(gt=0, le=1)] = Field(
+        default=1.0, description="gramian forgetting factor in (0, 1]; 1 = no forgetting"
+    )
+
+
+def gramian_step(G, nu2, depth_row, dt: float, R_inv: np.ndarray, gamma: float = 1.0, lib=np):
+    """One step of the constructability gramian: ``gamma F^-T G F^-1 + H^T R^-1 H`` (3x3).
+
+    ``F = expm(-S(nu_2) dt)`` (so ``F^-1 = expm(S(nu_2) dt)``), the accelerometer rows of H
+    are ``(I - F^-1)/dt`` (the paper's ``-S(nu_2)`` to first order) and ``depth_row`` (1x3)
+    is the depth-rate row ``e3^T R(Theta)``.  The one definition used by the optimisers
+    (``lib=ca``, symbolic) and checked against :class:`FlowKalmanFilter`'s numeric recursion
+    (its ``predict`` then ``update`` with the same R) by the tests.
+    """
+    if lib is np:
+        Fi = flow_transition(-np.asarray(nu2, dtype=float), dt)
+        H = np.vstack([(np.eye(3) - Fi) / dt, np.reshape(depth_row, (1, 3))])
+        return gamma * Fi.T @ G @ Fi + H.T @ R_inv @ H
+    Fi = flow_transition(-nu2, dt, ca)
+    H = ca.vertcat((ca.DM.eye(3) - Fi) / dt, ca.reshape(depth_row, 1, 3))
+    return gamma * ca.mtimes([Fi.T, G, Fi]) + ca.mtimes([H.T, ca.DM(R_inv), H])
 
 
 def information_lower_bound(G):
@@ -229,7 +276,7 @@ class FlowEstimator:
     prior_flow_ned : ndarray (3,)
         Prior flow in {n}, m/s; rotated into {b} with the first measured attitude.
     prior_std, process_noise, accel_noise_var, depth_rate_noise_var, forgetting_factor :
-        See :class:`auvdock.mission.EstimatorSpec` (the paper's R and Q_f).
+        See :class:`EstimatorSettings` (the paper's R and Q_f).
     gyro_std, attitude_std, relative_velocity_std : float
         Noise of the other readings the filter uses as if exact (rad/s, rad, m/s).  They
         are propagated into the filter each step, linearised at the current estimate:
@@ -264,8 +311,8 @@ class FlowEstimator:
         self.meas_noise = np.array([accel_noise_var] * 3 + [depth_rate_noise_var], dtype=float)
         self.gamma = float(forgetting_factor)
         m = vehicle.model
-        xr = ca.SX.sym("xr", 12)
-        u = ca.SX.sym("u", 8)
+        xr = ca.SX.sym("xr", NX)
+        u = ca.SX.sym("u", vehicle.n_thrusters)
         zero = ca.DM.zeros(3)
         self._prop = ca.Function(
             "nu_r_prop", [xr, u], [rk4(lambda x, uu: m.relative_dynamics(x, uu, zero), xr, self.dt, 2, u)]
@@ -304,7 +351,7 @@ class FlowEstimator:
             the first step.
         depth_rate : float or None
             Measured depth rate at t_k (m/s, positive down); None to skip that row.
-        u_applied : ndarray (8,)
+        u_applied : ndarray (n,)
             Thrust held over the last period (N).
 
         Returns
@@ -315,7 +362,7 @@ class FlowEstimator:
         """
         eta = np.asarray(eta, dtype=float)
         nu_r = np.asarray(nu_r, dtype=float)
-        R_nb = self.R(eta[3:6])
+        R_nb = self.R(eta[ATT])
         if self.kf is None:
             f0 = R_nb.T @ self.prior_flow_ned
             self.kf = FlowKalmanFilter(
@@ -324,7 +371,7 @@ class FlowEstimator:
         elif self._prev is not None:
             eta_prev, nu_r_prev = self._prev
             pred = np.asarray(self._prop(np.concatenate([eta_prev, nu_r_prev]), u_applied)).ravel()
-            nu_r1_dot = (pred[6:9] - nu_r_prev[0:3]) / self.dt
+            nu_r1_dot = (pred[LIN] - nu_r_prev[0:3]) / self.dt
             nu2_mid = 0.5 * (nu_r_prev[3:6] + nu_r[3:6])
             Sf = skew(self.kf.f)
             gyro_cov = self.gyro_var * 0.5 * (Sf @ Sf.T)  # mean of two gyro readings

@@ -29,9 +29,14 @@ from pydantic import (
     model_validator,
 )
 
+from .controllers.registry import controller_names, settings_for, settings_union
+from .controllers.settings import MPCSettings
+from .controllers.solvers import solver_names
 from .dock import HeaveDock
+from .estimator import EstimatorSettings
 from .flow import ConstantCurrent, DoubleGyre, FlowField, StillWater, flow_case, flow_case_names
 from .schema import Strict, first_error
+from .sensors import SensorSettings
 from .vehicle import Vehicle, load_vehicle, preset_names
 from .vehicle.params import VehicleParamsError
 
@@ -44,13 +49,12 @@ __all__ = [
     "SOLVER_NAMES",
 ]
 
-CONTROLLER_TYPES = ("naive", "kinematic", "oracle", "sequential", "optimized")
-SOLVER_NAMES = ("auto", "ipopt", "sqp", "rti")
+#: The registered controllers (:mod:`auvdock.controllers.registry`) and solvers, by name.
+CONTROLLER_TYPES = controller_names()
+SOLVER_NAMES = solver_names()
 
 PosFloat = Annotated[float, Field(gt=0)]
 NonNegFloat = Annotated[float, Field(ge=0)]
-
-_DEFAULT_Q = [1.0, 1.0, 1.0, 100.0, 100.0, 100.0, 1.0, 1.0, 1.0, 100.0, 100.0, 100.0]
 
 
 class MissionError(Exception):
@@ -259,101 +263,6 @@ class StartSpec(Strict):
     )
 
 
-class WeightsSpec(Strict):
-    """MPC weights of cost (10): stage Q and terminal P on the 12-state error, R on input rate."""
-
-    Q: Vec12NonNeg = Field(default=list(_DEFAULT_Q), description="12 diagonal stage weights")
-    R: list[NonNegFloat] = Field(default=[10.0] * 8, description="8 diagonal input-rate weights, 1/N^2")
-    P: Vec12NonNeg = Field(default=list(_DEFAULT_Q), description="12 diagonal terminal weights")
-
-    @field_validator("R", mode="before")
-    @classmethod
-    def _r(cls, v: Any) -> Any:
-        if isinstance(v, (int, float)) and not isinstance(v, bool):
-            return [v] * 8
-        if isinstance(v, list) and len(v) != 8:
-            raise ValueError(f"must have 8 values (or one number), got {len(v)}")
-        return v
-
-
-class BoundsSpec(Strict):
-    """State bounds of the MPC (parameters.md section 4)."""
-
-    relative_velocity_max_m_s: Vec3Pos = Field(
-        default=[2.5, 2.5, 2.5], description="|u_r|, |v_r|, |w_r|, m/s"
-    )
-    angular_rate_max_rad_s: Vec3Pos = Field(default=[0.25, 0.25, 0.25], description="|p|, |q|, |r|, rad/s")
-
-
-class SolverSpec(Strict):
-    """Numerical solver of the MPC problem."""
-
-    name: Literal["auto", "ipopt", "sqp", "rti"] = Field(
-        default="auto",
-        description=(
-            "sqp (sqpmethod + qrqp, Gauss-Newton, iterated to convergence), rti (real-time "
-            "iteration: one Gauss-Newton QP step per control step), ipopt (interior point) or auto "
-            "(see auvdock.controllers.resolve_solver)"
-        ),
-    )
-    max_iter: Annotated[int, Field(ge=1)] = Field(default=100, description="iteration limit per solve")
-    tol: PosFloat = Field(default=1e-6, description="convergence tolerance")
-
-
-class ControllerSpec(Strict):
-    """The docking controller (paper section V)."""
-
-    type: Literal["naive", "kinematic", "oracle", "sequential", "optimized"] = Field(default="oracle")
-    horizon_steps: Annotated[int, Field(ge=1)] = Field(default=10, description="N, steps")
-    dt_s: PosFloat = Field(default=0.05, description="control period and MPC step, s")
-    weights: WeightsSpec = Field(default_factory=WeightsSpec)
-    bounds: BoundsSpec = Field(default_factory=BoundsSpec)
-    solver: SolverSpec = Field(default_factory=SolverSpec)
-    alpha: NonNegFloat = Field(
-        default=1e-3, description="Optimized FSE-MPC weight on the information metric F"
-    )
-    perception_wrench_max: Vec6Pos = Field(
-        default=[0.1, 0.1, 0.1, 0.1, 0.1, 0.1],
-        description="Sequential FSE-MPC: bound of the active-perception wrench (N, N m), 6 values",
-    )
-    perception_solver: Literal["corners", "sqp", "ipopt"] = Field(
-        default="corners",
-        description=(
-            "Sequential FSE-MPC: how law (9) is solved: corners (best of the 64 corners of the "
-            "wrench box, one compiled call) or ipopt (local optimum from a fixed start)"
-        ),
-    )
-
-
-class EstimatorSpec(Strict):
-    """Kalman filter on the body-frame flow (parameters.md section 5)."""
-
-    prior_flow_ned_m_s: Vec3 = Field(default=[0.0, 0.0, 0.0], description="prior flow estimate, m/s")
-    prior_std_m_s: PosFloat = Field(
-        default=3.0, description="prior standard deviation per axis, m/s (contains the 2 m/s of case 4)"
-    )
-    process_noise_m2_s2: NonNegFloat = Field(default=1e-12, description="Q_f per axis per step, (m/s)^2")
-    accel_noise_var: PosFloat = Field(default=2.029e-5, description="R: accelerometer variance, (m/s^2)^2")
-    depth_rate_noise_var: PosFloat = Field(default=2e-6, description="R: depth-rate variance, (m/s)^2")
-    forgetting_factor: Annotated[float, Field(gt=0, le=1)] = Field(
-        default=1.0, description="gramian forgetting factor in (0, 1]; 1 = no forgetting"
-    )
-
-
-class SensorsSpec(Strict):
-    """Simulated sensor noise (standard deviations); no velocity over ground (no DVL)."""
-
-    position_std_m: NonNegFloat = Field(default=0.002, description="pose position noise, m")
-    attitude_std_rad: NonNegFloat = Field(default=0.002, description="pose attitude noise, rad")
-    gyro_std_rad_s: NonNegFloat = Field(default=0.001, description="angular-rate noise, rad/s")
-    accel_std_m_s2: NonNegFloat = Field(default=0.0045, description="accelerometer noise, m/s^2")
-    depth_rate_std_m_s: NonNegFloat = Field(default=0.0014, description="depth-rate noise, m/s")
-    relative_velocity_std_m_s: NonNegFloat = Field(
-        default=0.001,
-        description="noise of the velocity through the water (Assumption 1: state [eta; nu_r]), m/s",
-    )
-
-
 class DockingSpec(Strict):
     """When a run ends."""
 
@@ -469,9 +378,13 @@ class Mission(Strict):
     flow: FlowSpec = Field(default_factory=FlowSpec)
     dock: DockSpec = Field(default_factory=DockSpec)
     start: StartSpec = Field(default_factory=StartSpec)
-    controller: ControllerSpec = Field(default_factory=ControllerSpec)
-    estimator: EstimatorSpec = Field(default_factory=EstimatorSpec)
-    sensors: SensorsSpec = Field(default_factory=SensorsSpec)
+    controller: settings_union() = Field(  # type: ignore[valid-type]
+        default_factory=lambda: settings_for("oracle"),
+        description="the docking controller: type (naive, kinematic, oracle, sequential, "
+        "optimized) and its settings; fields of other types are errors",
+    )
+    estimator: EstimatorSettings = Field(default_factory=EstimatorSettings)
+    sensors: SensorSettings = Field(default_factory=SensorSettings)
     docking: DockingSpec = Field(default_factory=DockingSpec)
     simulation: SimulationSpec = Field(default_factory=SimulationSpec)
     fly: FlySpec = Field(default_factory=FlySpec)
@@ -481,6 +394,15 @@ class Mission(Strict):
 
     # where the file was read from (not part of the schema)
     _source: Path | None = None
+
+    @model_validator(mode="before")
+    @classmethod
+    def _controller_type_default(cls, data: Any) -> Any:
+        """A controller section without ``type`` is the default controller's (oracle)."""
+        if isinstance(data, dict) and isinstance(data.get("controller"), dict):
+            if "type" not in data["controller"]:
+                data = {**data, "controller": {"type": "oracle", **data["controller"]}}
+        return data
 
     @field_validator("name")
     @classmethod
@@ -493,6 +415,11 @@ class Mission(Strict):
     def source(self) -> Path | None:
         """The mission file this mission was read from, if any."""
         return self._source
+
+    @property
+    def controller_settings(self) -> MPCSettings:
+        """The controller's settings (typed; the same object as ``controller``)."""
+        return self.controller
 
     def build_vehicle(self) -> Vehicle:
         """The vehicle the mission names, with its overrides."""
@@ -554,9 +481,28 @@ class Mission(Strict):
         """The resolved mission as YAML text (stored in every results file)."""
         return yaml.safe_dump(self.resolved(), sort_keys=False)
 
+    def with_controller(self, name: str) -> Mission:
+        """A copy flown by controller ``name``: shared settings kept, its own defaulted.
+
+        See :func:`auvdock.controllers.registry.settings_for`; ValueError for an unknown name.
+        """
+        if name == self.controller.type:
+            return self
+        m = self.model_copy(update={"controller": settings_for(name, self.controller)})
+        m._source = self._source
+        return m
+
     def with_updates(self, **changes: Any) -> Mission:
-        """A validated copy with dotted-path changes, e.g. ``{"controller.type": "naive"}``."""
-        data = self.resolved()
+        """A validated copy with dotted-path changes, e.g. ``{"seed": 3, "controller.alpha": 2e-3}``.
+
+        ``controller.type`` switches the controller as :meth:`with_controller` does (the
+        other type's own fields are dropped), before the other changes apply.
+        """
+        base = self
+        if "controller.type" in changes:
+            changes = dict(changes)
+            base = self.with_controller(str(changes.pop("controller.type")))
+        data = base.resolved()
         for path, value in changes.items():
             node = data
             keys = path.split(".")
@@ -586,6 +532,11 @@ def parse_mission(data: Any, source: str | Path = "<mission>") -> Mission:
         if m.vehicle.file is not None and not e.field.startswith("overrides"):
             field = "vehicle.file" if e.field == "vehicle" else f"vehicle.file ({e.field})"
         raise MissionError(source, field, e.message) from None
+    n = m.build_vehicle().n_thrusters
+    try:
+        m.controller.weights.R_for(n)
+    except ValueError as e:
+        raise MissionError(source, "controller.weights.R", f"{e} ({m.build_vehicle().name})") from None
     return m
 
 

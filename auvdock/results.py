@@ -19,7 +19,7 @@ name                   shape       unit       frame        meaning
                                    m/s, rad/s              phi theta psi (ZYX Euler angles, rad),
                                                            u v w (body velocity over ground, m/s),
                                                            p q r (body angular rate, rad/s)]
-``thrust_N``           (T, 8)      N          thruster     the 8 thruster forces applied on [t_k, t_k+dt)
+``thrust_N``           (T, n)      N          thruster     the n thruster forces applied on [t_k, t_k+dt)
 ``wrench``             (T, 6)      N, N m     body {b}     body wrench B u = [X Y Z K M N]
 ``flow_ned_m_s``       (T, 3)      m/s        NED          true water velocity at the vehicle at t_k
 ``dock_position_m``    (T, 3)      m          NED          dock position at t_k
@@ -32,9 +32,8 @@ name                   shape       unit       frame        meaning
                                                            ``flow_covariance`` (T, 3, 3), ``information`` (T,)
 =====================  ==========  =========  ===========  ==============================================
 
-All per-step datasets are float64 except ``solver_status`` (int8; codes :data:`STATUS_OK`
-0 "ok", :data:`STATUS_NOT_CONVERGED` 1 "not_converged", :data:`STATUS_FAILED` 2 "failed",
-:data:`STATUS_FALLBACK_ZERO` 3 "fallback_zero").
+All per-step datasets are float64 except ``solver_status`` (int8; the codes of
+:mod:`auvdock.controllers.status`, stored with the file as ``solver_status_codes``).
 
 Group attributes
 ----------------
@@ -94,11 +93,6 @@ from auvdock import __version__
 __all__ = [
     "FORMAT",
     "FORMAT_VERSION",
-    "STATUS_OK",
-    "STATUS_NOT_CONVERGED",
-    "STATUS_FAILED",
-    "STATUS_FALLBACK_ZERO",
-    "STATUS_NAMES",
     "BASE_SERIES",
     "STRING_ATTRS",
     "RunWriter",
@@ -112,19 +106,6 @@ __all__ = [
 FORMAT = "auvdock-run"
 #: Layout version written by this module; readers accept versions up to this one.
 FORMAT_VERSION = 1
-
-STATUS_OK = 0
-STATUS_NOT_CONVERGED = 1
-STATUS_FAILED = 2
-STATUS_FALLBACK_ZERO = 3
-#: Solver status code -> name (stored as JSON in the ``solver_status_codes`` attribute).
-STATUS_NAMES: dict[int, str] = {
-    STATUS_OK: "ok",
-    STATUS_NOT_CONVERGED: "not_converged",
-    STATUS_FAILED: "failed",
-    STATUS_FALLBACK_ZERO: "fallback_zero",
-}
-_STATUS_CODES = {name: code for code, name in STATUS_NAMES.items()}
 
 #: The per-step datasets every run has: name -> (per-row shape, dtype).
 BASE_SERIES: dict[str, tuple[tuple[int, ...], np.dtype]] = {
@@ -261,6 +242,11 @@ class RunWriter:
     attrs : dict, optional
         Extra metadata attributes written at creation, e.g. ``{"tolerance_m": 0.1,
         "dt_s": 0.1, "flow_case": "case2"}`` (plots read ``tolerance_m``).
+    status_names : dict of int -> str, optional
+        The step-outcome codes stored as ``solver_status_codes`` and accepted by name in
+        :meth:`append` (default: :data:`auvdock.controllers.status.STATUS_NAMES`).
+    n_thrusters : int
+        Number of thrusters, the row length of ``thrust_N`` (the vehicle's; 8 for the Heavy).
 
     Examples
     --------
@@ -285,11 +271,19 @@ class RunWriter:
         flush_every: int = 1,
         overwrite: bool = True,
         attrs: dict[str, Any] | None = None,
+        status_names: dict[int, str] | None = None,
+        n_thrusters: int = 8,
     ) -> None:
+        if status_names is None:
+            from .controllers import status
+
+            status_names = status.STATUS_NAMES
+        self._status_names = dict(status_names)
+        self._status_codes = {name: code for code, name in self._status_names.items()}
         if isinstance(flush_every, bool) or not isinstance(flush_every, int | np.integer) or flush_every < 1:
             raise ValueError(f"flush_every must be an integer >= 1, got {flush_every!r}")
         self._flush_every = int(flush_every)
-        self._series = self._declare_series(extra_series or {})
+        self._series = self._declare_series(extra_series or {}, int(n_thrusters))
         meta = dict(attrs or {})
         clash = sorted(_RESERVED_ATTRS.intersection(meta))
         if clash:
@@ -321,7 +315,7 @@ class RunWriter:
             g.attrs["mission_yaml"] = str(mission_yaml)
             g.attrs["mission_name"] = str(mission_name)
             g.attrs["controller"] = str(controller)
-            g.attrs["solver_status_codes"] = json.dumps({str(k): v for k, v in STATUS_NAMES.items()})
+            g.attrs["solver_status_codes"] = json.dumps({str(k): v for k, v in self._status_names.items()})
             g.attrs["extra_series"] = json.dumps(
                 {name: list(shape) for name, (shape, _) in self._series.items() if name not in BASE_SERIES}
             )
@@ -343,17 +337,21 @@ class RunWriter:
                 self._file.close()
             raise
 
-        self._buffer: dict[str, list[np.ndarray]] = {name: [] for name in self._series}
-        self._n_buffered = 0
-        self._n_written = 0
+        # (rows written to the file, rows still buffered): replaced as ONE object, so that an
+        # interrupt (SIGINT raises KeyboardInterrupt between any two bytecodes) never leaves
+        # a count that disagrees with the buffer; see flush().
+        self._log: tuple[int, list[dict[str, np.ndarray]]] = (0, [])
         self._finished = False
         self._closed = False
 
     # -- construction helpers
 
     @staticmethod
-    def _declare_series(extra: dict[str, tuple[int, ...]]) -> dict[str, tuple[tuple[int, ...], np.dtype]]:
+    def _declare_series(
+        extra: dict[str, tuple[int, ...]], n_thrusters: int
+    ) -> dict[str, tuple[tuple[int, ...], np.dtype]]:
         series = dict(BASE_SERIES)
+        series["thrust_N"] = ((n_thrusters,), np.dtype(np.float64))
         for name, shape in extra.items():
             if not isinstance(name, str) or not name or "/" in name or name.startswith("."):
                 raise ValueError(f"extra series name must be a non-empty string without '/', got {name!r}")
@@ -411,7 +409,8 @@ class RunWriter:
     @property
     def n_steps(self) -> int:
         """Number of rows appended so far (written to the file or still buffered)."""
-        return self._n_written + self._n_buffered
+        written, pending = self._log
+        return written + len(pending)
 
     @property
     def group(self) -> str:
@@ -456,20 +455,18 @@ class RunWriter:
         converted: dict[str, np.ndarray] = {}
         for name, (shape, dtype) in self._series.items():
             converted[name] = self._convert(name, row[name], shape, dtype)
-        for name, value in converted.items():
-            self._buffer[name].append(value)
-        self._n_buffered += 1
-        if self._n_buffered >= self._flush_every:
+        pending = self._log[1]
+        pending.append(converted)  # one atomic list operation: the row is in, or not
+        if len(pending) >= self._flush_every:
             self.flush()
 
     def _convert(self, name: str, value: Any, shape: tuple[int, ...], dtype: np.dtype) -> np.ndarray:
         if name == "solver_status":
             if isinstance(value, str):
-                if value not in _STATUS_CODES:
-                    raise ValueError(
-                        f"solver_status: unknown status name {value!r}; known: {', '.join(_STATUS_CODES)}"
-                    )
-                value = _STATUS_CODES[value]
+                if value not in self._status_codes:
+                    known = ", ".join(self._status_codes)
+                    raise ValueError(f"solver_status: unknown status name {value!r}; known: {known}")
+                value = self._status_codes[value]
             try:
                 raw = np.asarray(value)
             except Exception as exc:  # pragma: no cover - numpy rarely fails here
@@ -496,15 +493,18 @@ class RunWriter:
         """Write buffered rows to the datasets and flush the HDF5 file to the OS."""
         if self._closed:
             return
-        m = self._n_buffered
+        n0, pending = self._log
+        m = len(pending)
         if m:
-            n0 = self._n_written
+            rows = pending[:m]
+            # Idempotent: an interrupt anywhere in this loop leaves the log as it was, and
+            # the next flush (close() does one) writes the same rows to the same places.
             for name, ds in self._datasets.items():
-                ds.resize(n0 + m, axis=0)
-                ds[n0 : n0 + m] = np.stack(self._buffer[name])
-                self._buffer[name].clear()
-            self._n_written += m
-            self._n_buffered = 0
+                if ds.shape[0] < n0 + m:
+                    ds.resize(n0 + m, axis=0)
+                ds[n0 : n0 + m] = np.stack([r[name] for r in rows])
+            # rows appended meanwhile (none in one thread) stay pending
+            self._log = (n0 + m, pending[m:])
         self._file.flush()
 
     def finish(self, outcome: dict[str, Any]) -> None:
@@ -650,8 +650,14 @@ class RunResults:
         """Solver status code -> name, as stored in the file."""
         raw = self.attrs.get("solver_status_codes")
         if not raw:
-            return dict(STATUS_NAMES)
+            return {}
         return {int(k): str(v) for k, v in json.loads(raw).items()}
+
+    def control_rows(self) -> np.ndarray:
+        """Mask (T,) of the rows that are control steps: all but the final-state row
+        (status ``no_step``), which holds the state the run ended in and no control."""
+        no_step = [code for code, name in self.status_names.items() if name == "no_step"]
+        return ~np.isin(self.solver_status, no_step)
 
     def outcome(self) -> dict[str, Any]:
         """The outcome attributes given to :meth:`RunWriter.finish` ({} if the run is incomplete)."""
@@ -786,3 +792,12 @@ def _list_runs(f: h5py.File) -> list[str]:
 
     f.visititems(visit)
     return sorted(found)
+
+
+def __getattr__(name: str) -> Any:
+    """``STATUS_*`` names, formerly defined here: now :mod:`auvdock.controllers.status`."""
+    if name.startswith("STATUS_"):
+        from .controllers import status
+
+        return getattr(status, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

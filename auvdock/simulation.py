@@ -1,15 +1,19 @@
 """The closed-loop simulation: truth model + flow field + dock + :class:`Autopilot`.
 
 Every control period dt the autopilot gets a :class:`Measurement` of the true state
-(Assumption 1), the true flow at the vehicle (used by Kinematic and Oracle MPC only,
-Assumption 3) and simulated inertial sensors, and returns thrust, which is held for dt
-(zero-order hold) while the truth model (eqs. 1-2 with the flow field evaluated at the
-vehicle's position and time) is integrated with RK4 substeps.
+(Assumption 1), the true flow at the vehicle (passed on only to the controllers whose
+definition reads it: Kinematic and Oracle MPC, Assumption 3) and simulated sensors
+(:mod:`auvdock.sensors`), and returns thrust, which is held for dt (zero-order hold) while
+the truth model (eqs. 1-2 with the flow field evaluated at the vehicle's position and time)
+is integrated with RK4 substeps.
 
 The run ends when the vehicle is within ``docking.tolerance_m`` of the dock (docked) or at
 ``docking.timeout_s`` (failure, with the closest approach recorded).  Every step is
-written to the results file as it happens (:mod:`auvdock.results`), so an interrupted run
-leaves a readable file marked ``complete = False``.
+written to the results file as it happens (:mod:`auvdock.results`), and the final state --
+the one in which docking is declared, or the last one -- is written as a last row with
+status ``no_step``.  A run interrupted at any moment (Ctrl-C) leaves a readable file marked
+``complete = False``; building the controller (compiling, on first use) is timed apart
+(``setup_time_s``) from the run itself (``wall_time_s``).
 """
 
 from __future__ import annotations
@@ -23,11 +27,15 @@ from typing import Any
 
 import numpy as np
 
-from .autopilot import Autopilot
-from .controllers import Measurement, resolve_solver
+from .autopilot import Autopilot, build_autopilot
+from .controllers import Measurement
+from .controllers.status import STATUS_NAMES, STATUS_NO_STEP, STATUS_OK
 from .geometry import wrap_angle
+from .interrupts import SigintDeferred
 from .mission import Mission
-from .results import STATUS_NAMES, STATUS_OK, RunWriter
+from .results import RunWriter
+from .sensors import SensorModel
+from .vehicle.state import ATT, LIN, POS, YAW
 
 __all__ = ["Progress", "RunSummary", "simulate", "run_outcome"]
 
@@ -59,45 +67,6 @@ class RunSummary:
         return bool(self.outcome.get("docked", False))
 
 
-class SensorModel:
-    """Simulated inertial and pose sensors, seeded (same seed, same readings).
-
-    Readings at t_k (noise standard deviations from ``mission.sensors``):
-    ``pose`` (6,) eta + noise; ``gyro_rad_s`` (3,) nu_2 + noise; ``relative_velocity_m_s`` (3,)
-    the linear velocity through the water nu_r1 + noise (Assumption 1 in the authors' state
-    [eta; nu_r]);  ``accel_m_s2`` (3,) the mean
-    body acceleration over the last period, ``(nu_1(t_k) - nu_1(t_(k-1))) / dt`` + noise
-    (gravity removed; absent at k = 0); ``depth_rate_m_s`` the z component of R nu_1 + noise.
-    """
-
-    def __init__(self, mission: Mission, rotation: Callable[[np.ndarray], np.ndarray]) -> None:
-        s = mission.sensors
-        self.rng = np.random.default_rng(mission.seed)
-        self.pos_std = s.position_std_m
-        self.att_std = s.attitude_std_rad
-        self.gyro_std = s.gyro_std_rad_s
-        self.acc_std = s.accel_std_m_s2
-        self.dr_std = s.depth_rate_std_m_s
-        self.vr_std = s.relative_velocity_std_m_s
-        self.rot = rotation
-
-    def read(
-        self, x: np.ndarray, x_prev: np.ndarray | None, dt: float, flow_ned: np.ndarray
-    ) -> dict[str, np.ndarray]:
-        n = self.rng.standard_normal(16)
-        R = self.rot(x[3:6])
-        pose = x[0:6] + np.concatenate([self.pos_std * n[0:3], self.att_std * n[3:6]])
-        out = {
-            "pose": pose,
-            "gyro_rad_s": x[9:12] + self.gyro_std * n[6:9],
-            "depth_rate_m_s": np.asarray(float(R[2] @ x[6:9]) + self.dr_std * n[12]),
-            "relative_velocity_m_s": x[6:9] - R.T @ flow_ned + self.vr_std * n[13:16],
-        }
-        if x_prev is not None:
-            out["accel_m_s2"] = (x[6:9] - x_prev[6:9]) / dt + self.acc_std * n[9:12]
-        return out
-
-
 def run_outcome(
     *,
     docked: bool,
@@ -112,18 +81,23 @@ def run_outcome(
     rotation: Callable[[np.ndarray], np.ndarray],
     wall_time_s: float,
     reason: str,
+    setup_time_s: float = 0.0,
 ) -> dict[str, Any]:
-    """The outcome figures of a run (see the README's results layout)."""
-    pos = np.array([s[0:3] for s in states]) if states else np.zeros((0, 3))
+    """The outcome figures of a run (see the README's results layout).
+
+    ``wall_time_s`` is the run's own wall time (the loop); ``setup_time_s`` the time spent
+    building the controller before it (compiling on first use), reported on its own.
+    """
+    pos = np.array([s[POS] for s in states]) if states else np.zeros((0, 3))
     if contact_state is not None:
-        pos = np.vstack([pos, contact_state[0:3]])
+        pos = np.vstack([pos, contact_state[POS]])
     path_length = float(np.sum(np.linalg.norm(np.diff(pos, axis=0), axis=1))) if len(pos) > 1 else 0.0
     st = np.asarray(solve_times, dtype=float)
     contact_speed = heading_err = math.nan
     if docked and contact_state is not None and dock_velocity is not None:
-        v_ned = rotation(contact_state[3:6]) @ contact_state[6:9]
+        v_ned = rotation(contact_state[ATT]) @ contact_state[LIN]
         contact_speed = float(np.linalg.norm(v_ned - dock_velocity))
-        heading_err = wrap_angle(float(contact_state[5]) - dock_heading)
+        heading_err = wrap_angle(float(contact_state[YAW]) - dock_heading)
     return {
         "docked": bool(docked),
         "reason": reason,
@@ -140,6 +114,7 @@ def run_outcome(
         "solve_time_p99_s": float(np.percentile(st, 99)) if st.size else math.nan,
         "solve_time_max_s": float(np.max(st)) if st.size else math.nan,
         "wall_time_s": float(wall_time_s),
+        "setup_time_s": float(setup_time_s),
         "real_time_factor": float(t_end / wall_time_s) if wall_time_s > 0 else math.nan,
     }
 
@@ -161,7 +136,7 @@ def simulate(
     mission : Mission
         The validated mission.
     controller : str, optional
-        Controller name overriding ``mission.controller.type``.
+        Controller name overriding ``mission.controller.type`` (shared settings kept).
     out : path or h5py.File, optional
         Results file to write (created; an existing run there is replaced); None: no file.
     group : str
@@ -171,19 +146,24 @@ def simulate(
     timeout_s : float, optional
         Override of ``mission.docking.timeout_s``.
     autopilot : Autopilot, optional
-        A prebuilt autopilot (e.g. with a modified solver), else built from the mission.
+        A prebuilt autopilot (e.g. with a nominal model that differs from the truth, or a
+        modified solver), else built from the mission with
+        :func:`auvdock.autopilot.build_autopilot`; its ``build_time_s`` is the run's
+        ``setup_time_s``.
 
     Returns
     -------
     RunSummary
         Outcome figures; the same figures are stored in the results file.
     """
+    t_setup = time.perf_counter()
     vehicle = mission.build_vehicle()
     flow = mission.build_flow()
     dock = mission.build_dock()
-    ap = autopilot or Autopilot(mission, vehicle, dock, controller)
+    ap = autopilot or build_autopilot(mission, vehicle, dock, controller)
+    setup_s = time.perf_counter() - t_setup if autopilot is None else ap.build_time_s
     ap.reset()
-    dt = mission.controller.dt_s
+    dt = ap.dt
     timeout = mission.docking.timeout_s if timeout_s is None else float(timeout_s)
     tol = mission.docking.tolerance_m
     truth_step = vehicle.stepper(dt, mission.simulation.substeps, flow)
@@ -194,25 +174,30 @@ def simulate(
 
     writer: RunWriter | None = None
     if out is not None:
-        writer = RunWriter(
-            out if not isinstance(out, str) else Path(out),
-            group,
-            mission_yaml=mission.to_yaml(),
-            mission_name=mission.name,
-            controller=ap.name,
-            extra_series=ap.extra_series,
-            attrs={
-                "tolerance_m": tol,
-                "timeout_s": timeout,
-                "dt_s": dt,
-                "flow": flow.describe(),
-                "vehicle": vehicle.name,
-                "solver": resolve_solver(mission.controller.solver.name, ap.name),
-            },
-        )
+        with SigintDeferred():  # the run group is created whole, or not at all
+            writer = RunWriter(
+                out if not isinstance(out, str) else Path(out),
+                group,
+                mission_yaml=mission.to_yaml(),
+                mission_name=mission.name,
+                controller=ap.name,
+                extra_series=ap.extra_series,
+                status_names=STATUS_NAMES,
+                n_thrusters=vehicle.n_thrusters,
+                attrs={
+                    "tolerance_m": tol,
+                    "timeout_s": timeout,
+                    "dt_s": dt,
+                    "flow": flow.describe(),
+                    "vehicle": vehicle.name,
+                    "solver": ap.solver,
+                    "reads_true_flow": ap.reads_true_flow,
+                },
+            )
 
-    sensors = SensorModel(mission, rot)
+    sensors = SensorModel(mission.sensors, mission.seed, rot)
     record_true_body_flow = "flow_body_true_m_s" in ap.extra_series
+    no_step_extras = {name: np.full(shape, np.nan) for name, shape in ap.extra_series.items()}
     x = mission.start_state()
     x_prev: np.ndarray | None = None
     n_max = int(math.ceil(timeout / dt - 1e-9))
@@ -225,23 +210,44 @@ def simulate(
     contact_state = None
     t_end = 0.0
     reason = "timeout"
+    zero_thrust = np.zeros(vehicle.n_thrusters)
+
+    def final_row(t: float, x_end: np.ndarray, dist: float) -> None:
+        """The state in which the run ends (docked, timed out or diverged): no control step."""
+        if writer is None:
+            return
+        writer.append(
+            time_s=t,
+            state=x_end,
+            thrust_N=zero_thrust,
+            wrench=np.zeros(6),
+            flow_ned_m_s=flow.velocity(x_end[POS], t) if np.all(np.isfinite(x_end)) else np.full(3, np.nan),
+            dock_position_m=dock.position(t),
+            dock_velocity_m_s=dock.velocity(t),
+            distance_m=dist,
+            solve_time_s=math.nan,
+            solver_status=STATUS_NO_STEP,
+            **no_step_extras,
+        )
+
     wall0 = time.perf_counter()
     try:
         for k in range(n_max):
             t = k * dt
             p_dock = dock.position(t)
             v_dock = dock.velocity(t)
-            dist = float(np.linalg.norm(x[0:3] - p_dock))
+            dist = float(np.linalg.norm(x[POS] - p_dock))
             if dist <= tol:
                 docked, contact_state, t_end, reason = True, x.copy(), t, "docked"
                 distances.append(dist)
+                final_row(t, x, dist)
                 break
-            v_c = flow.velocity(x[0:3], t)
+            v_c = flow.velocity(x[POS], t)
             out_k = ap.step(
                 Measurement(t=t, state=x.copy(), flow_ned=v_c, sensors=sensors.read(x, x_prev, dt, v_c))
             )
             if record_true_body_flow:
-                f_true = rot(x[3:6]).T @ v_c
+                f_true = rot(x[ATT]).T @ v_c
                 out_k.series["flow_body_true_m_s"] = f_true
                 flow_errors.append(float(np.linalg.norm(out_k.series["flow_estimate_m_s"] - f_true)))
             u = out_k.thrust
@@ -267,17 +273,18 @@ def simulate(
                 progress(Progress(t, timeout, dist, out_k.solve_time_s, out_k.status, k))
             x_prev = x
             x = np.asarray(truth_step(x, u, t)).ravel()
+            t_end = t + dt
             if not np.all(np.isfinite(x)):
                 reason = "diverged"
-                t_end = t + dt
+                final_row(t_end, x, math.nan)
                 break
-            t_end = t + dt
         else:
             # last state after the final period
-            dist = float(np.linalg.norm(x[0:3] - dock.position(t_end)))
+            dist = float(np.linalg.norm(x[POS] - dock.position(t_end)))
             distances.append(dist)
             if dist <= tol:
                 docked, contact_state, reason = True, x.copy(), "docked"
+            final_row(t_end, x, dist)
     except BaseException:  # Ctrl-C or an error: keep every finished step, complete = False
         if writer is not None:
             writer.close()
@@ -296,6 +303,7 @@ def simulate(
         rotation=rot,
         wall_time_s=wall,
         reason=reason,
+        setup_time_s=setup_s,
     )
     if flow_errors:
         e = np.asarray(flow_errors)
@@ -306,7 +314,10 @@ def simulate(
     )
     path = None
     if writer is not None:
-        writer.finish(outcome)
-        path = Path(writer.filename)
-        writer.close()
+        try:
+            with SigintDeferred():  # the outcome is written whole, or the run stays incomplete
+                writer.finish(outcome)
+        finally:
+            path = Path(writer.filename)
+            writer.close()
     return RunSummary(mission.name, ap.name, outcome, path, np.asarray(solve_times))

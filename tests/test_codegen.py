@@ -37,24 +37,24 @@ def _first_move(c, m) -> np.ndarray:
 
 def test_build_once_then_load_and_same_answer(cache, monkeypatch) -> None:
     m, v, d = _small()
-    c1 = build_controller(m, v, d, "oracle")
+    c1 = build_controller(m.with_controller("oracle").controller, v, d)
     assert c1.mpc.build == "compiled"
     assert len(list(cache.glob("*.so"))) == 1
-    c2 = build_controller(m, v, d, "oracle")
+    c2 = build_controller(m.with_controller("oracle").controller, v, d)
     assert c2.mpc.build == "cache"
     # the compiled solver gives the uncompiled one's answer
     u_compiled = _first_move(c2, m)
     monkeypatch.setenv("AUVDOCK_COMPILE", "never")
-    c3 = build_controller(m, v, d, "oracle")
+    c3 = build_controller(m.with_controller("oracle").controller, v, d)
     assert c3.mpc.build == "uncompiled"
     assert np.allclose(u_compiled, _first_move(c3, m), atol=1e-6)
 
 
 def test_changed_parameter_builds_anew(cache) -> None:
     m, v, d = _small()
-    assert build_controller(m, v, d, "oracle").mpc.build == "compiled"
+    assert build_controller(m.with_controller("oracle").controller, v, d).mpc.build == "compiled"
     m2, v2, d2 = _small(**{"controller.weights.R": 20.0})
-    assert build_controller(m2, v2, d2, "oracle").mpc.build == "compiled"
+    assert build_controller(m2.with_controller("oracle").controller, v2, d2).mpc.build == "compiled"
     assert len(list(cache.glob("*.so"))) == 2
     assert {p.name for p, _ in codegen.cache_entries()} == {p.name for p in cache.glob("*.so")}
     assert codegen.clear_cache() == 2
@@ -63,11 +63,11 @@ def test_changed_parameter_builds_anew(cache) -> None:
 
 def test_corrupted_cache_file_is_rebuilt_with_a_warning(cache) -> None:
     m, v, d = _small()
-    build_controller(m, v, d, "oracle")
+    build_controller(m.with_controller("oracle").controller, v, d)
     (so,) = cache.glob("*.so")
     so.write_bytes(b"not a shared library")
     with pytest.warns(UserWarning, match="does not load"):
-        c = build_controller(m, v, d, "oracle")
+        c = build_controller(m.with_controller("oracle").controller, v, d)
     assert c.mpc.build == "compiled"
     assert so.stat().st_size > 1000
 
@@ -77,6 +77,6 @@ def test_no_compiler_runs_uncompiled_with_a_warning(cache, monkeypatch) -> None:
     monkeypatch.setattr(codegen, "_warned_no_compiler", False)
     m, v, d = _small()
     with pytest.warns(UserWarning, match="no C compiler found"):
-        c = build_controller(m, v, d, "oracle")
+        c = build_controller(m.with_controller("oracle").controller, v, d)
     assert c.mpc.build == "uncompiled"
     assert np.all(np.isfinite(_first_move(c, m)))

@@ -23,12 +23,13 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from auvdock.controllers.fse import PerceptionLaw, gramian_step
+from auvdock.controllers.fse import PerceptionLaw
 from auvdock.estimator import (
     EstimatorStep,
     FlowEstimator,
     FlowKalmanFilter,
     flow_transition,
+    gramian_step,
     information_lower_bound,
 )
 from auvdock.flow import ConstantCurrent
@@ -267,10 +268,32 @@ def test_perception_law_first_step_not_zero(vehicle):
     def F_next(t: np.ndarray) -> float:
         nu_dot, _ = m.accelerations(ca.DM(x), ca.DM(t), ca.DM.zeros(3), ca.DM.zeros(3))
         nu2 = ca.DM(x[9:12]) + DT * nu_dot[3:6]
-        G = gramian_step(ca.DM.eye(3), nu2, m.rotation(ca.DM(x[0:6]))[2, :], DT, R_INV)
+        G = gramian_step(ca.DM.eye(3), nu2, m.rotation(ca.DM(x[0:6]))[2, :], DT, R_INV, 1.0, ca)
         return float(np.linalg.eigvalsh(np.asarray(G))[0])
 
     assert F_next(tau) > 10.0 * F_next(np.zeros(6))
+
+
+@pytest.mark.parametrize("gamma", [1.0, 0.97])
+def test_gramian_one_definition_numpy_casadi_and_filter_agree(gamma: float) -> None:
+    """The gramian recursion is written once (estimator.gramian_step, numpy or CasADi): both
+    evaluations agree, and the filter's predict + update (with the same R) gives the same G."""
+    rng = np.random.default_rng(4)
+    R_inv = np.diag(1.0 / np.array([2.029e-5] * 3 + [2e-6]))
+    kf = FlowKalmanFilter(DT, np.zeros(3), 9.0, 0.0, 1.0 / np.diag(R_inv), gamma)
+    G = np.eye(3)
+    for _ in range(25):
+        nu2 = 0.25 * rng.uniform(-1, 1, 3)
+        angles = rng.uniform(-0.3, 0.3, 3)
+        R_nb = load_vehicle("bluerov2_heavy").model.function("rotation")(angles)
+        R_nb = np.asarray(R_nb)
+        G_np = gramian_step(G, nu2, R_nb[2, :], DT, R_inv, gamma)
+        G_ca = np.asarray(gramian_step(ca.DM(G), ca.DM(nu2), ca.DM(R_nb[2, :]).T, DT, R_inv, gamma, ca))
+        assert np.allclose(G_np, G_ca, rtol=1e-12, atol=1e-9)
+        kf.predict(nu2)
+        kf.update(np.zeros(4), FlowKalmanFilter.measurement_matrix(nu2, R_nb, DT))
+        assert np.allclose(kf.G, G_np, rtol=1e-9)
+        G = G_np
 
 
 # --- 4. consistency ------------------------------------------------------------------------------

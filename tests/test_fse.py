@@ -16,8 +16,8 @@ import pytest
 from typer.testing import CliRunner
 
 from auvdock.cli import app
-from auvdock.controllers.fse import PerceptionLaw, gramian_step
-from auvdock.estimator import information_lower_bound
+from auvdock.controllers.fse import PerceptionLaw
+from auvdock.estimator import gramian_step, information_lower_bound
 from auvdock.mission import load_mission
 from auvdock.results import read_run
 from auvdock.simulation import simulate
@@ -65,25 +65,27 @@ def test_flow_series_recorded(optimized) -> None:
     s, out = optimized
     r = read_run(out)
     n = len(r.time_s)
+    ctrl = r.control_rows()
     assert r.extras["flow_estimate_m_s"].shape == (n, 3)
     assert r.extras["flow_covariance"].shape == (n, 3, 3)
     assert r.extras["information"].shape == (n,)
     # the estimate in NED ends at the true current; the recorded true body flow is consistent
-    assert np.linalg.norm(r.extras["flow_estimate_ned_m_s"][-1] - TRUE_FLOW) < 0.02
-    body_speed = np.linalg.norm(r.extras["flow_body_true_m_s"], axis=1)
+    assert np.linalg.norm(r.extras["flow_estimate_ned_m_s"][ctrl][-1] - TRUE_FLOW) < 0.02
+    assert np.all(np.isnan(r.extras["flow_estimate_ned_m_s"][~ctrl]))  # the final row: no step
+    body_speed = np.linalg.norm(r.extras["flow_body_true_m_s"][ctrl], axis=1)
     assert np.allclose(body_speed, np.linalg.norm(TRUE_FLOW), atol=1e-9)
     # covariance stays symmetric positive definite; information grows from its prior of 1
-    P = r.extras["flow_covariance"]
+    P = r.extras["flow_covariance"][ctrl]
     assert np.allclose(P, np.transpose(P, (0, 2, 1)))
     assert np.all(np.linalg.eigvalsh(P) > 0)
-    assert r.extras["information"][-1] > 100.0 * r.extras["information"][0]
+    assert r.extras["information"][ctrl][-1] > 100.0 * r.extras["information"][0]
 
 
 def test_sequential_applies_bounded_perception_wrench(sequential) -> None:
     s, out = sequential
     r = read_run(out)
-    w = r.extras["perception_wrench"]
-    bound = np.asarray(load_mission(CASE2).controller.perception_wrench_max)
+    w = r.extras["perception_wrench"][r.control_rows()]
+    bound = np.asarray(load_mission(CASE2).with_controller("sequential").controller.perception_wrench_max)
     assert np.all(np.abs(w) <= bound + 1e-9)
     assert np.max(np.abs(w[:, 5])) > 0.5 * bound[5]  # the law does turn the vehicle
 
@@ -94,14 +96,14 @@ def test_corners_law_is_at_least_as_good_as_ipopt() -> None:
     v = m.build_vehicle()
     e, dt = m.estimator, m.controller.dt_s
     R_inv = np.diag(1.0 / np.array([e.accel_noise_var] * 3 + [e.depth_rate_noise_var]))
-    bound = np.asarray(m.controller.perception_wrench_max)
+    bound = np.asarray(m.with_controller("sequential").controller.perception_wrench_max)
     laws = {k: PerceptionLaw(v, dt, bound, R_inv, e.forgetting_factor, k) for k in ("corners", "ipopt")}
 
     def F_next(x, flow, G, tau) -> float:
         nu_dot, _ = v.model.accelerations(ca.DM(x), ca.DM(tau), ca.DM(flow), ca.DM.zeros(3))
         nu2 = ca.DM(x[9:12]) + dt * nu_dot[3:6]
         R_nb = v.model.rotation(ca.DM(x[0:6]))
-        Gn = gramian_step(ca.DM(G), nu2, R_nb[2, :], dt, R_inv, e.forgetting_factor)
+        Gn = gramian_step(ca.DM(G), nu2, R_nb[2, :], dt, R_inv, e.forgetting_factor, ca)
         return float(information_lower_bound(np.asarray(Gn)))
 
     rng = np.random.default_rng(3)

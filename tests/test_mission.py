@@ -75,7 +75,7 @@ def test_defaults_fill_minimal_mission(tmp_path: Path) -> None:
     assert m.vehicle.preset == "bluerov2_heavy"
     assert m.flow.case == "case1"
     assert m.controller.weights.Q[3] == 100.0
-    assert m.controller.weights.R == [10.0] * 8
+    assert m.controller.weights.R_for(8) == [10.0] * 8
     assert list(m.start_state()) == [0, 0, 5, 0, 0, 0, 0, 0, 0, 0, 0, 0]
 
 

@@ -15,12 +15,10 @@ import numpy as np
 import pytest
 
 import auvdock
+from auvdock.controllers.status import STATUS_FAILED, STATUS_NAMES, STATUS_OK
 from auvdock.results import (
     BASE_SERIES,
     FORMAT,
-    STATUS_FAILED,
-    STATUS_NAMES,
-    STATUS_OK,
     RunWriter,
     list_runs,
     read_run,
@@ -134,7 +132,7 @@ def test_attrs_round_trip(tmp_path: Path) -> None:
     assert r.controller == "flow_mpc"
     assert a["tolerance_m"] == 0.1
     assert {int(k): v for k, v in json.loads(a["solver_status_codes"]).items()} == STATUS_NAMES
-    assert STATUS_NAMES == {0: "ok", 1: "not_converged", 2: "failed", 3: "fallback_zero"}
+    assert STATUS_NAMES == {0: "ok", 1: "not_converged", 2: "failed", 3: "fallback_zero", 4: "no_step"}
 
     out = r.outcome()
     assert set(out) == set(OUTCOME)

@@ -10,7 +10,8 @@ from typer.testing import CliRunner
 
 from auvdock.cli import app
 from auvdock.mission import load_mission
-from auvdock.results import STATUS_OK, read_run
+from auvdock.controllers.status import STATUS_NO_STEP, STATUS_OK
+from auvdock.results import read_run
 from auvdock.simulation import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -65,7 +66,8 @@ def test_thrust_limits_never_exceeded(oracle_case2) -> None:
 def test_results_file_layout(oracle_case2) -> None:
     s, out = oracle_case2
     r = read_run(out)
-    T = s.outcome["n_steps"]
+    # one row per control step, then the final (docked) state with status no_step
+    T = s.outcome["n_steps"] + 1
     assert T > 10 and r.n_steps == T
     shapes = {
         "time_s": (T,),
@@ -89,7 +91,11 @@ def test_results_file_layout(oracle_case2) -> None:
     np.testing.assert_allclose(r.flow_ned_m_s[0], [0.5, 0.5, 0.0])
     B = mission("diagonal").build_vehicle().allocation
     np.testing.assert_allclose(r.wrench, r.thrust_N @ B.T, atol=1e-9)
-    assert np.all(r.solver_status == STATUS_OK)
+    assert np.all(r.solver_status[:-1] == STATUS_OK) and r.solver_status[-1] == STATUS_NO_STEP
+    assert np.count_nonzero(r.control_rows()) == T - 1
+    # the state in which docking is declared is in the file, within the tolerance
+    assert r.distance_m[-1] == r.distance_m.min() <= r.attrs["tolerance_m"]
+    np.testing.assert_allclose(np.linalg.norm(r.state[-1, 0:3] - r.dock_position_m[-1]), r.distance_m[-1])
 
 
 def test_interrupted_run_keeps_finished_steps(tmp_path: Path) -> None:
@@ -115,9 +121,10 @@ def test_solver_failure_does_not_stop_the_run(tmp_path: Path) -> None:
     s = simulate(m, out=out, timeout_s=2.0)
     r = read_run(out)
     assert r.complete
-    assert r.n_steps == 40  # every step of the 2 s ran
+    assert r.n_steps == 41  # every step of the 2 s ran, then the final state
     assert s.outcome["solver_failures"] > 0
-    assert np.count_nonzero(r.solver_status != STATUS_OK) == s.outcome["solver_failures"]
+    steps = r.solver_status[r.control_rows()]
+    assert np.count_nonzero(steps != STATUS_OK) == s.outcome["solver_failures"]
     assert np.all(np.isfinite(r.thrust_N))
 
 
@@ -181,7 +188,7 @@ def test_ctrl_c_during_a_solve_is_an_interrupt_not_solver_trouble() -> None:
     from auvdock.controllers import build_controller
 
     m = mission("diagonal", **{"controller.solver.name": "ipopt"})
-    c = build_controller(m, m.build_vehicle(), m.build_dock(), "oracle")
+    c = build_controller(m.with_controller("oracle").controller, m.build_vehicle(), m.build_dock())
     x = m.start_state()
     old = signal.signal(signal.SIGALRM, lambda *a: signal.raise_signal(signal.SIGINT))
     statuses = []

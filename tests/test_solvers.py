@@ -7,11 +7,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from auvdock.controllers import build_controller, resolve_solver
-from auvdock.controllers.mpc import SOLVERS
+from auvdock.controllers import SOLVERS, build_controller, resolve_solver
 from auvdock.controllers.rti import COLD_START_MAX_ITER
 from auvdock.mission import load_mission
-from auvdock.results import STATUS_FAILED, STATUS_OK
+from auvdock.controllers.status import STATUS_FAILED, STATUS_OK
 from auvdock.simulation import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -30,7 +29,7 @@ def _case2(solver: str):
 
 def _first_move(solver: str) -> tuple[np.ndarray, int]:
     m = _case2(solver)
-    c = build_controller(m, m.build_vehicle(), m.build_dock())
+    c = build_controller(m.controller, m.build_vehicle(), m.build_dock())
     r = c.mpc.solve(0.0, m.start_state(), np.zeros(8), FLOW)
     assert r.status == STATUS_OK, r.return_status
     return r.thrust, r.iterations
@@ -62,7 +61,7 @@ def test_every_solver_docks_case2_with_oracle(solver: str) -> None:
 
 def test_rti_takes_one_qp_step_per_control_step() -> None:
     m = _case2("rti")
-    c = build_controller(m, m.build_vehicle(), m.build_dock())
+    c = build_controller(m.controller, m.build_vehicle(), m.build_dock())
     x = m.start_state()
     iters = [c.mpc.solve(0.05 * k, x, np.zeros(8), FLOW).iterations for k in range(4)]
     assert iters[0] > 1 and iters[1:] == [1, 1, 1]
@@ -84,7 +83,7 @@ def test_auto_solver() -> None:
 @pytest.mark.parametrize("solver", SOLVERS)
 def test_non_finite_input_falls_back_without_solving(solver: str) -> None:
     m = _case2(solver)
-    c = build_controller(m, m.build_vehicle(), m.build_dock())
+    c = build_controller(m.controller, m.build_vehicle(), m.build_dock())
     x = m.start_state()
     good = c.mpc.solve(0.0, x, np.zeros(8), FLOW)
     r = c.mpc.solve(0.05, x, good.thrust, np.array([np.nan, 0.5, 0.0]))

@@ -106,10 +106,10 @@ def sim(
         f"[bold]{m.name}[/bold]: {m.build_flow().describe()}; controller [bold]{name}[/bold] "
         f"(N = {m.controller.horizon_steps}, dt = {m.controller.dt_s} s, {solver})"
     )
-    from ..autopilot import Autopilot
+    from ..autopilot import build_autopilot
 
     # build (and, the first time, compile) the controller before the progress display starts
-    ap = Autopilot(m, m.build_vehicle(), m.build_dock(), name)
+    ap = build_autopilot(m, m.build_vehicle(), m.build_dock())
     with Progress(
         SpinnerColumn(),
         TextColumn("[progress.description]{task.description}"),

@@ -44,20 +44,53 @@ from __future__ import annotations
 
 import itertools
 import time
+from typing import Annotated, Literal
 
 import casadi as ca
 import numpy as np
+from pydantic import Field
 
 from ..codegen import compiled_function, compiled_nlpsol
 from ..dock import HeaveDock
-from ..estimator import FlowEstimator, flow_transition, information_lower_bound
-from ..mission import Mission
+from ..estimator import EstimatorSettings, FlowEstimator, gramian_step, information_lower_bound
+from ..interrupts import SigintDeferred
+from ..sensors import SensorSettings
 from ..vehicle import Vehicle
-from .base import ControlOutput, Measurement
-from .mpc import SigintDeferred
+from ..vehicle.state import ANG, ATT, ETA
+from .base import ControlOutput, Measurement, Plan
+from .baseline import build_mpc
 from .rti import QRQP_OPTIONS
+from .settings import MPCSettings
 
-__all__ = ["FSEMPC", "PerceptionLaw", "gramian_step"]
+__all__ = ["FSEMPC", "PerceptionLaw", "SequentialSettings", "OptimizedSettings"]
+
+PosFloat = Annotated[float, Field(gt=0)]
+
+
+class SequentialSettings(MPCSettings):
+    """Sequential FSE-MPC: the perception law (9), then the MPC with the estimated flow."""
+
+    type: Literal["sequential"] = "sequential"
+    perception_wrench_max: Annotated[list[PosFloat], Field(min_length=6, max_length=6)] = Field(
+        default=[0.1, 0.1, 0.1, 0.1, 0.1, 0.1],
+        description="bound of the active-perception wrench (N, N m), 6 values",
+    )
+    perception_solver: Literal["corners", "sqp", "ipopt"] = Field(
+        default="corners",
+        description=(
+            "how law (9) is solved: corners (best of the 64 corners of the wrench box, one "
+            "compiled call), sqp or ipopt (local optimum from a fixed start)"
+        ),
+    )
+
+
+class OptimizedSettings(MPCSettings):
+    """Optimized FSE-MPC: cost (10) minus alpha times the information metric F."""
+
+    type: Literal["optimized"] = "optimized"
+    alpha: Annotated[float, Field(ge=0)] = Field(
+        default=1e-3, description="weight on the information metric F (see auvdock.controllers.fse)"
+    )
 
 
 def _sym_from6(g: ca.SX) -> ca.SX:
@@ -70,21 +103,6 @@ def _sym_from6(g: ca.SX) -> ca.SX:
 
 def _six(G: np.ndarray) -> np.ndarray:
     return np.array([G[0, 0], G[0, 1], G[0, 2], G[1, 1], G[1, 2], G[2, 2]])
-
-
-def gramian_step(
-    G: ca.SX, nu2: ca.SX, depth_row: ca.SX, dt: float, R_inv: np.ndarray, gamma: float = 1.0
-) -> ca.SX:
-    """One step of the gramian recursion, symbolically: gamma F^-T G F^-1 + H^T R^-1 H.
-
-    ``F = expm(-S(nu_2) dt)`` (so ``F^-1 = expm(S(nu_2) dt)``) and the accelerometer rows
-    of H are ``(I - F^-1)/dt``, the paper's ``-S(nu_2)`` to first order, as in the filter.
-    ``depth_row`` (1x3) is the depth-rate row ``e3^T R(Theta)``, the third row of the
-    rotation matrix; it depends on roll and pitch only, not on heading.
-    """
-    Fi = flow_transition(-nu2, dt, ca)
-    H = ca.vertcat((ca.DM.eye(3) - Fi) / dt, ca.reshape(depth_row, 1, 3))
-    return gamma * ca.mtimes([Fi.T, G, Fi]) + ca.mtimes([H.T, ca.DM(R_inv), H])
 
 
 class PerceptionLaw:
@@ -122,13 +140,13 @@ class PerceptionLaw:
         self.method = method
         m = vehicle.model
         tau = ca.SX.sym("tau", 6)
-        x = ca.SX.sym("x", 12)
+        x = ca.SX.sym("x", vehicle.nx)
         f_ned = ca.SX.sym("flow_ned", 3)
         g6 = ca.SX.sym("G", 6)
         nu_dot, _ = m.accelerations(x, tau, f_ned, ca.DM.zeros(3))
-        nu2_next = x[9:12] + dt * nu_dot[3:6]
-        R_nb = m.rotation(x[0:6])
-        G_next = gramian_step(_sym_from6(g6), nu2_next, R_nb[2, :], dt, R_inv, gamma)
+        nu2_next = x[ANG] + dt * nu_dot[3:6]
+        R_nb = m.rotation(x[ETA])
+        G_next = gramian_step(_sym_from6(g6), nu2_next, R_nb[2, :], dt, R_inv, gamma, ca)
         # scale by the current F so the objective is O(1)
         scale = ca.SX.sym("scale")
         obj = -information_lower_bound(G_next) / scale
@@ -181,7 +199,7 @@ class PerceptionLaw:
     def solve(
         self, x: np.ndarray, flow_ned: np.ndarray, G: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, bool]:
-        """Return (wrench tau* (6,), thrust offset B^+ tau* (8,), success)."""
+        """Return (wrench tau* (6,), thrust offset B^+ tau* (n,), success)."""
         F0 = max(float(information_lower_bound(G)), 1e-12)
         p = np.concatenate([x, flow_ned, _six(G), [F0]])
         if self.method == "corners":
@@ -215,15 +233,20 @@ class FSEMPC:
         "innovation": (4,),
     }
 
-    def __init__(self, name: str, mission: Mission, vehicle: Vehicle, dock: HeaveDock) -> None:
-        from . import build_mpc, resolve_solver
-
-        if name not in ("sequential", "optimized"):
-            raise ValueError(f"not an FSE-MPC controller: {name!r}")
-        self.name = name
-        e = mission.estimator
-        c = mission.controller
-        dt = c.dt_s
+    def __init__(
+        self,
+        settings: SequentialSettings | OptimizedSettings,
+        vehicle: Vehicle,
+        dock: HeaveDock,
+        solver: str,
+        estimator: EstimatorSettings,
+        sensors: SensorSettings,
+    ) -> None:
+        if settings.type not in ("sequential", "optimized"):
+            raise ValueError(f"not an FSE-MPC controller: {settings.type!r}")
+        self.name = settings.type
+        e = estimator
+        dt = settings.dt_s
         self.vehicle = vehicle
         rot = vehicle.model.function("rotation")
         self._rotation = lambda angles: np.asarray(rot(angles))
@@ -236,20 +259,25 @@ class FSEMPC:
             e.accel_noise_var,
             e.depth_rate_noise_var,
             e.forgetting_factor,
-            gyro_std=mission.sensors.gyro_std_rad_s,
-            attitude_std=mission.sensors.attitude_std_rad,
-            relative_velocity_std=mission.sensors.relative_velocity_std_m_s,
+            gyro_std=sensors.gyro_std_rad_s,
+            attitude_std=sensors.attitude_std_rad,
+            relative_velocity_std=sensors.relative_velocity_std_m_s,
         )
         R_inv = np.diag(1.0 / np.array([e.accel_noise_var] * 3 + [e.depth_rate_noise_var]))
         gamma = e.forgetting_factor
         self.law: PerceptionLaw | None = None
-        if name == "sequential":
+        if isinstance(settings, SequentialSettings):
             self.law = PerceptionLaw(
-                vehicle, dt, np.asarray(c.perception_wrench_max), R_inv, gamma, c.perception_solver
+                vehicle,
+                dt,
+                np.asarray(settings.perception_wrench_max),
+                R_inv,
+                gamma,
+                settings.perception_solver,
             )
-            self.mpc = build_mpc(mission, vehicle, dock, "full", name)
+            self.mpc = build_mpc(settings, vehicle, dock, "full", solver)
         else:
-            alpha = float(c.alpha)
+            alpha = float(settings.alpha)
 
             def info_term(X, U, params, extra):
                 G = _sym_from6(extra[0:6])
@@ -257,19 +285,19 @@ class FSEMPC:
                 depth_row = extra[7:10]
                 J = 0
                 for k in range(1, X.shape[1]):
-                    G = gramian_step(G, X[9:12, k], depth_row, dt, R_inv, gamma)
+                    G = gramian_step(G, X[ANG, k], depth_row, dt, R_inv, gamma, ca)
                     J += information_lower_bound(G) - F0
                 return -alpha * J
 
             self.mpc = build_mpc(
-                mission,
+                settings,
                 vehicle,
                 dock,
                 "full",
-                name,
+                solver,
                 objective_extra=info_term,
                 extra_params=10,
-                extra_hessian=resolve_solver(c.solver.name, "optimized") == "ipopt",
+                extra_hessian=solver == "ipopt",
             )
 
     def reset(self) -> None:
@@ -290,6 +318,7 @@ class FSEMPC:
         )
         tau = np.zeros(6)
         t0 = time.perf_counter()
+        # the estimator's state is [eta; nu_r + f; nu_2] (ETA, LIN, ANG)
         if self.law is not None:
             tau, u_off, _ = self.law.solve(est.state, est.flow_ned, self.estimator.gramian())
             r = self.mpc.solve(meas.t, est.state, u_prev, est.flow_ned)
@@ -297,7 +326,7 @@ class FSEMPC:
             r.thrust = thrust
         else:
             G = self.estimator.gramian()
-            depth_row = self._rotation(est.state[3:6])[2, :]
+            depth_row = self._rotation(est.state[ATT])[2, :]
             extra = np.concatenate([_six(G), [float(information_lower_bound(G))], depth_row])
             r = self.mpc.solve(meas.t, est.state, u_prev, est.flow_ned, extra=extra)
         series = {
@@ -308,4 +337,6 @@ class FSEMPC:
             "perception_wrench": tau,
             "innovation": est.innovation,
         }
-        return ControlOutput(r.thrust, r.status, time.perf_counter() - t0, r, series)
+        return ControlOutput(
+            r.thrust, r.status, time.perf_counter() - t0, Plan(r.plan_state, r.plan_thrust), series
+        )

@@ -31,8 +31,6 @@ last good plan (or zero thrust if there is none) with a status code saying so.
 from __future__ import annotations
 
 import math
-import signal
-import threading
 import time
 from dataclasses import dataclass, field
 from typing import Literal
@@ -40,32 +38,20 @@ from typing import Literal
 import casadi as ca
 import numpy as np
 
-from ..codegen import compiled_nlpsol
 from ..dock import HeaveDock
-from ..results import STATUS_FAILED, STATUS_FALLBACK_ZERO, STATUS_NAMES, STATUS_NOT_CONVERGED, STATUS_OK
+from ..interrupts import SigintDeferred
 from ..vehicle import Vehicle
 from ..vehicle.model import rk4
-from .rti import QRQP_OPTIONS as _QRQP_OPTIONS
-from .rti import RealTimeIteration
+from ..vehicle.state import ANG, ATT, LIN, NU, POS, YAW
+from .solvers import SOLVERS, Problem, SolveResult
+from .status import STATUS_FAILED, STATUS_FALLBACK_ZERO, STATUS_NOT_CONVERGED, STATUS_OK
 
-__all__ = [
-    "DockingMPC",
-    "MPCResult",
-    "STATUS_OK",
-    "STATUS_NOT_CONVERGED",
-    "STATUS_FAILED",
-    "STATUS_FALLBACK_ZERO",
-    "STATUS_NAMES",
-    "SOLVERS",
-]
+__all__ = ["DockingMPC", "MPCResult"]
 
 Prediction = Literal["naive", "kinematic", "full"]
 
 #: ``return_status`` of a solve skipped because its parameters were not finite.
 NON_FINITE_INPUT = "non-finite input (state, flow estimate or dock)"
-
-#: Solvers of the MPC problem (``controller.solver.name``, besides ``auto``).
-SOLVERS = ("ipopt", "sqp", "rti")
 
 
 @dataclass
@@ -74,7 +60,7 @@ class MPCResult:
 
     Attributes
     ----------
-    thrust : ndarray (8,)
+    thrust : ndarray (n,)
         Thrust to apply now (N), including the input offset; within the thruster limits.
     status : int
         One of the ``STATUS_*`` codes.
@@ -84,7 +70,7 @@ class MPCResult:
         Solver iterations.
     plan_state : ndarray (N+1, 12)
         Predicted states of the plan that is being followed (over-ground velocities).
-    plan_thrust : ndarray (N, 8)
+    plan_thrust : ndarray (N, n)
         Planned thrusts (N), including the offset.
     cost : float
         Objective value (NaN on failure).
@@ -115,17 +101,17 @@ class DockingMPC:
     dt : float
         Step, s.
     Q, R, P : array_like
-        Diagonals of the stage (12), input-rate (8) and terminal (12) weights.
+        Diagonals of the stage (12), input-rate (n, one per thruster, 1/N^2) and terminal
+        (12) weights.
     v_rel_max : array_like (3,)
         Bound on |nu_r,1| (m/s), relative velocity in {b}.
     w_max : array_like (3,)
         Bound on |nu_2| (rad/s).
     prediction : {"naive", "kinematic", "full"}
         Prediction model, see the module docstring.
-    solver : {"ipopt", "sqp", "rti"}
-        IPOPT (interior point), CasADi's sqpmethod with the qrqp QP solver (iterated to
-        convergence), or real-time iteration (one Gauss-Newton QP step per solve from the
-        shifted previous solution, :mod:`auvdock.controllers.rti`).
+    solver : str
+        A solver registered in :data:`auvdock.controllers.solvers.SOLVERS` ("ipopt",
+        "sqp", "rti").
     max_iter, tol : int, float
         Solver iteration limit and tolerance.
     hessian : {"gauss-newton", "exact"}
@@ -179,6 +165,9 @@ class DockingMPC:
         self.u_min = vehicle.thrust_min
         self.u_max = vehicle.thrust_max
         self.n_extra = int(extra_params)
+        self.nx, self.nu = vehicle.nx, vehicle.n_thrusters
+        if self.R.shape != (self.nu,):
+            raise ValueError(f"R must have {self.nu} values (one per thruster), got {self.R.shape}")
         rot = vehicle.model.function("rotation")
         self._R = lambda angles: np.asarray(rot(angles))  # R(Theta), {b} -> {n}
         self._rot_map = rot.map(self.N + 1)
@@ -190,7 +179,7 @@ class DockingMPC:
     def _build(self, objective_extra, solver: str, max_iter: int, tol: float, hessian: str) -> None:
         N, dt = self.N, self.dt
         model = self.vehicle.model
-        nx, nu = 12, 8
+        nx, nu = self.nx, self.nu
 
         # parameters, packed in one vector
         x0 = ca.SX.sym("x0", nx)
@@ -223,18 +212,17 @@ class DockingMPC:
 
         def over_ground(xk: ca.SX) -> ca.SX:
             if self.prediction == "kinematic":
-                return xk[6:12] + ca.vertcat(model.body_flow(xk[0:6], flow), 0, 0, 0)
-            return xk[6:12]
+                return xk[NU] + ca.vertcat(model.body_flow(xk[0:6], flow), 0, 0, 0)
+            return xk[NU]
 
         def error(k: int) -> ca.SX:
             xk = X[:, k]
             R_nb = model.rotation(xk[0:6])
             v_ref = ca.mtimes(R_nb.T, dock_v[:, k])
             return ca.vertcat(
-                xk[0:3] - dock_p[:, k],
-                xk[3],
-                xk[4],
-                xk[5] - psi_ref,
+                xk[POS] - dock_p[:, k],
+                xk[ATT][0:2],
+                xk[YAW] - psi_ref,
                 over_ground(xk) - ca.vertcat(v_ref, 0, 0, 0),
             )
 
@@ -260,10 +248,8 @@ class DockingMPC:
         J = J + J_extra
 
         w = ca.vertcat(ca.vec(X), ca.vec(U))
-        nlp = {"x": w, "f": J, "g": ca.vertcat(*g), "p": params}
         self._nw = w.shape[0]
         self._ng = nx * N
-        opts_common: dict = {"expand": True, "print_time": False, "error_on_fail": False}
         H_gn = None
         if hessian == "gauss-newton":
             Jr = ca.jacobian(r, w)
@@ -272,53 +258,11 @@ class DockingMPC:
                 H_gn = H_gn + ca.hessian(J_extra, w)[0]
         elif hessian != "exact":
             raise ValueError(f"unknown hessian {hessian!r} (known: gauss-newton, exact)")
-        if H_gn is not None and solver in ("ipopt", "sqp"):
-            lam_f = ca.SX.sym("lam_f")
-            lam_g = ca.SX.sym("lam_g", self._ng)
-            H = lam_f * (ca.triu(H_gn) if solver == "ipopt" else H_gn)
-            opts_common["hess_lag"] = ca.Function(
-                "nlp_hess_l", [w, params, lam_f, lam_g], [H], ["x", "p", "lam_f", "lam_g"], ["hess_gamma_x_x"]
-            )
-        self._rti = None
-        if solver == "ipopt":
-            opts = dict(opts_common)
-            opts["ipopt"] = {
-                "print_level": 0,
-                "sb": "yes",
-                "max_iter": int(max_iter),
-                "tol": float(tol),
-                "acceptable_tol": 1e-4,
-                "warm_start_init_point": "yes",
-                "mu_init": 1e-2,
-                "warm_start_bound_push": 1e-6,
-                "warm_start_mult_bound_push": 1e-6,
-            }
-            self._solver, self.build = compiled_nlpsol("mpc", "ipopt", nlp, opts)
-        elif solver == "sqp":
-            opts = dict(opts_common)
-            opts.update(
-                {
-                    "print_header": False,
-                    "print_iteration": False,
-                    "print_status": False,
-                    "max_iter": int(max_iter),
-                    "tol_pr": float(tol),
-                    "tol_du": float(tol) * 100,
-                    "hessian_approximation": "exact",
-                    "qpsol": "qrqp",
-                    "qpsol_options": _QRQP_OPTIONS,
-                }
-            )
-            if hessian == "exact":
-                opts["convexify_strategy"] = "regularize"
-            self._solver, self.build = compiled_nlpsol("mpc", "sqpmethod", nlp, opts)
-        elif solver == "rti":
-            if H_gn is None:
-                raise ValueError("solver rti needs the gauss-newton Hessian")
-            self._rti = RealTimeIteration(w, params, J, ca.vertcat(*g), H_gn, max_iter=int(max_iter), tol=tol)
-            self._solver, self.build = None, self._rti.build
-        else:
+        if solver not in SOLVERS:
             raise ValueError(f"unknown solver {solver!r} (known: {', '.join(SOLVERS)})")
+        problem = Problem(w, params, J, ca.vertcat(*g), H_gn, hessian)
+        self._solver = SOLVERS[solver].build(problem, max_iter, tol)
+        self.build = self._solver.build
 
         # index helpers into w
         self._ix = np.arange(nx * (N + 1)).reshape(N + 1, nx)
@@ -339,7 +283,7 @@ class DockingMPC:
         if self.prediction != "kinematic":
             return x
         xr = x.copy()
-        xr[6:9] -= self._R(x[3:6]).T @ flow_ned
+        xr[LIN] -= self._R(x[ATT]).T @ flow_ned
         return xr
 
     def _bounds(
@@ -351,13 +295,13 @@ class DockingMPC:
         ubx[self._ix[0]] = xm
         # relative velocity box, centred on the body-frame flow at the current attitude
         if self.prediction == "full":
-            centre = self._R(xm[3:6]).T @ flow_ned
+            centre = self._R(xm[ATT]).T @ flow_ned
         else:
             centre = np.zeros(3)
-        lbx[self._ix[1:, 6:9]] = centre - self.v_rel_max
-        ubx[self._ix[1:, 6:9]] = centre + self.v_rel_max
-        lbx[self._ix[1:, 9:12]] = -self.w_max
-        ubx[self._ix[1:, 9:12]] = self.w_max
+        lbx[self._ix[1:, LIN]] = centre - self.v_rel_max
+        ubx[self._ix[1:, LIN]] = centre + self.v_rel_max
+        lbx[self._ix[1:, ANG]] = -self.w_max
+        ubx[self._ix[1:, ANG]] = self.w_max
         lbx[self._iu] = self.u_min - u_off
         ubx[self._iu] = self.u_max - u_off
         return lbx, ubx
@@ -375,24 +319,24 @@ class DockingMPC:
 
         Parameters
         ----------
-        u_prev : ndarray (8,)
+        u_prev : ndarray (n,)
             Thrust applied during the last period (N), for the input-rate cost.
         flow_ned : ndarray (3,), optional
             Flow used by the prediction (m/s, NED): the true flow for Oracle/Kinematic,
             the estimate for FSE-MPC; ignored by Naive.
-        u_offset : ndarray (8,), optional
+        u_offset : ndarray (n,), optional
             Fixed input added to every planned input (N).
         extra : ndarray, optional
             Extra parameters of ``objective_extra``.
         """
         x = np.asarray(x, dtype=float)
         flow = np.zeros(3) if flow_ned is None else np.asarray(flow_ned, dtype=float)
-        u_off = np.zeros(8) if u_offset is None else np.asarray(u_offset, dtype=float)
+        u_off = np.zeros(self.nu) if u_offset is None else np.asarray(u_offset, dtype=float)
         ex = np.zeros(self.n_extra) if extra is None else np.asarray(extra, dtype=float)
         xm = self._to_model_state(x, flow)
         _, dp, dv = self.dock.trajectory(t, self.dt, self.N)
         psi_d = self.dock.heading_rad
-        psi_ref = psi_d + 2 * math.pi * round((x[5] - psi_d) / (2 * math.pi))
+        psi_ref = psi_d + 2 * math.pi * round((x[YAW] - psi_d) / (2 * math.pi))
         p = np.concatenate([xm, u_prev - u_off, dp.ravel(), dv.ravel(), [psi_ref], flow, u_off, ex])
         lbx, ubx = self._bounds(xm, flow, u_off)
 
@@ -403,36 +347,21 @@ class DockingMPC:
         else:
             w0 = _shift(self._w_prev, self._ix, self._iu)
             w0[self._ix[0]] = xm
-        args = {"x0": w0, "p": p, "lbx": lbx, "ubx": ubx, "lbg": 0.0, "ubg": 0.0}
-        if self._lam_x is not None:
-            args["lam_x0"] = self._lam_x
-            args["lam_g0"] = self._lam_g
-
         t0 = time.perf_counter()
-        lam_x = lam_g = None
         if not np.all(np.isfinite(p)):
             # a diverged estimate (or state) would make every solver iteration fail on NaN
-            ok, ret, iters, finite, w_opt, fval = False, NON_FINITE_INPUT, 0, False, None, math.nan
+            res = SolveResult(None, False, NON_FINITE_INPUT, 0, math.nan)
         else:
             try:
                 with SigintDeferred():
-                    if self._rti is not None:
-                        w_opt, ok, ret, iters, fval = self._rti.solve(
-                            w0, p, lbx, ubx, 0.0, 0.0, cold=self._w_prev is None
-                        )
-                    else:
-                        sol = self._solver(**args)
-                        stats = self._solver.stats()
-                        ok = bool(stats.get("success", False))
-                        ret = str(stats.get("return_status", ""))
-                        iters = int(stats.get("iter_count", -1))
-                        w_opt = np.asarray(sol["x"]).ravel()
-                        fval = float(sol["f"])
-                        lam_x = np.asarray(sol["lam_x"]).ravel()
-                        lam_g = np.asarray(sol["lam_g"]).ravel()
-                finite = bool(np.all(np.isfinite(w_opt)))
+                    res = self._solver.solve(
+                        w0, p, lbx, ubx, lam_x0=self._lam_x, lam_g0=self._lam_g, cold=self._w_prev is None
+                    )
             except RuntimeError as e:  # CasADi evaluation errors
-                ok, ret, iters, finite, w_opt, fval = False, f"error: {e}", -1, False, None, math.nan
+                res = SolveResult(None, False, f"error: {e}", -1, math.nan)
+        finite = res.w is not None and bool(np.all(np.isfinite(res.w)))
+        ok, ret, iters, w_opt, fval = res.success, res.return_status, res.iterations, res.w, res.cost
+        lam_x, lam_g = res.lam_x, res.lam_g
         solve_time = time.perf_counter() - t0
 
         if ok and finite:
@@ -453,9 +382,9 @@ class DockingMPC:
             plan_x, plan_u = self._plan_x, self._plan_u
         else:
             status = STATUS_FALLBACK_ZERO
-            thrust = np.zeros(8)
+            thrust = np.zeros(self.nu)
             plan_x = np.tile(x, (self.N + 1, 1))
-            plan_u = np.zeros((self.N, 8))
+            plan_u = np.zeros((self.N, self.nu))
         if finite and w_opt is not None:
             # keep the (unconverged) iterate as the next warm start: usually closer than the old one
             self._w_prev = w_opt
@@ -466,39 +395,9 @@ class DockingMPC:
             return Xm.copy()
         X = Xm.copy()
         # R(Theta_k)^T flow for every node in one call (columns: R_k, stacked 3 x 3(N+1))
-        R_all = np.asarray(self._rot_map(Xm[:, 3:6].T)).reshape(3, -1, 3)  # [i, k, j] = R_k[i, j]
-        X[:, 6:9] += np.einsum("ikj,i->kj", R_all, flow_ned)
+        R_all = np.asarray(self._rot_map(Xm[:, ATT].T)).reshape(3, -1, 3)  # [i, k, j] = R_k[i, j]
+        X[:, LIN] += np.einsum("ikj,i->kj", R_all, flow_ned)
         return X
-
-
-class SigintDeferred:
-    """Hold Ctrl-C (SIGINT) back while a CasADi solver runs, then raise KeyboardInterrupt.
-
-    CasADi's interrupt check turns a KeyboardInterrupt raised inside a solve into a failed
-    solve (IPOPT returns ``NonIpopt_Exception_Thrown``), which a run loop would take for
-    solver trouble and go on.  Inside this block SIGINT only sets a flag; on leaving it the
-    interrupt is raised.  Outside the main thread (where handlers cannot be set) it does
-    nothing.
-    """
-
-    def __enter__(self) -> SigintDeferred:
-        self.hit = False
-        self._old = None
-        if threading.current_thread() is threading.main_thread():
-            try:
-                self._old = signal.signal(signal.SIGINT, self._handler)
-            except ValueError:
-                self._old = None
-        return self
-
-    def _handler(self, signum, frame) -> None:
-        self.hit = True
-
-    def __exit__(self, *exc: object) -> None:
-        if self._old is not None:
-            signal.signal(signal.SIGINT, self._old)
-        if self.hit:
-            raise KeyboardInterrupt
 
 
 def _shift(w: np.ndarray, ix: np.ndarray, iu: np.ndarray) -> np.ndarray:

@@ -5,12 +5,12 @@ Library use::
     from auvdock.vehicle import load_vehicle
     v = load_vehicle("bluerov2_heavy")
     xdot = v.state_derivative(x, u, flow_ned)   # ndarray (12,)
-    v.allocation                                # (6, 8): tau = B u
-    v.thrust_min, v.thrust_max                  # (8,) N
+    v.allocation                                # (6, n): tau = B u, n = v.n_thrusters
+    v.thrust_min, v.thrust_max                  # (n,) N
 
 Conventions: ``x = [x, y, z, phi, theta, psi, u, v, w, p, q, r]`` -- position NED (m),
 ZYX Euler angles (rad), body-frame velocity over ground (m/s, rad/s); ``u`` = thrust of
-T1..T8 (N); ``flow_ned`` = water velocity (north, east, down) at the vehicle (m/s).
+T1..Tn (N), n from the vehicle file; ``flow_ned`` = water velocity (north, east, down) at the vehicle (m/s).
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ import numpy as np
 
 from .model import VehicleModel, rk4
 from .params import VehicleParams, VehicleParamsError, load_params, preset_names
+from .state import ETA, LIN, NX, POS
 
 __all__ = ["Vehicle", "VehicleModel", "VehicleParams", "VehicleParamsError", "load_vehicle", "preset_names"]
 
@@ -41,18 +42,28 @@ class Vehicle:
 
     @property
     def allocation(self) -> np.ndarray:
-        """Thruster allocation matrix B (6x8): body wrench (N, N m) = B @ thrusts (N)."""
+        """Thruster allocation matrix B (6 x n): body wrench (N, N m) = B @ thrusts (N)."""
         return self.model.B
 
     @property
     def thrust_min(self) -> np.ndarray:
-        """Per-thruster reverse limits (8,), N (negative)."""
+        """Per-thruster reverse limits (n,), N (negative)."""
         return self.params.thrust_limits_N[:, 0].copy()
 
     @property
     def thrust_max(self) -> np.ndarray:
-        """Per-thruster forward limits (8,), N."""
+        """Per-thruster forward limits (n,), N."""
         return self.params.thrust_limits_N[:, 1].copy()
+
+    @property
+    def n_thrusters(self) -> int:
+        """Number of thrusters n (the input dimension; 8 for the Heavy, 6 for the standard frame)."""
+        return self.model.nu
+
+    @property
+    def nx(self) -> int:
+        """State dimension (12: [eta; nu])."""
+        return NX
 
     def state_derivative(
         self,
@@ -61,7 +72,7 @@ class Vehicle:
         flow_ned: np.ndarray | None = None,
         flow_ned_dot: np.ndarray | None = None,
     ) -> np.ndarray:
-        """x_dot (12,) of paper eqs. (1)-(2) at state ``x`` (12,) with thrusts ``u`` (8,, N).
+        """x_dot (12,) of paper eqs. (1)-(2) at state ``x`` (12,) with thrusts ``u`` (n,, N).
 
         ``flow_ned`` is the water velocity at the vehicle in {n} (m/s, default still water);
         ``flow_ned_dot`` its rate of change along the vehicle's path (m/s^2, default zero).
@@ -72,7 +83,7 @@ class Vehicle:
         return np.asarray(f(np.asarray(x, float), np.asarray(u, float), vc, vcd)).ravel()
 
     def stepper(self, dt: float, substeps: int = 4, flow: Any = None) -> ca.Function:
-        """Truth integrator ``(x[12], u[8], t) -> x(t + dt)`` through a flow field.
+        """Truth integrator ``(x[12], u[n], t) -> x(t + dt)`` through a flow field.
 
         RK4 with ``substeps`` steps; thrust held constant (zero-order hold).  ``flow`` is a
         :class:`auvdock.flow.FlowField` (None: still water); the field is evaluated at the
@@ -82,8 +93,8 @@ class Vehicle:
         key = (float(dt), int(substeps), id(flow))
         if key in self._steppers:
             return self._steppers[key]
-        x = ca.SX.sym("x", 12)
-        u = ca.SX.sym("u", 8)
+        x = ca.SX.sym("x", NX)
+        u = ca.SX.sym("u", self.n_thrusters)
         t = ca.SX.sym("t")
         m = self.model
 
@@ -94,15 +105,15 @@ class Vehicle:
             tt = ca.SX.sym("tt")
             v = flow.symbolic(p, tt)
             field = ca.Function("field", [p, tt], [v, ca.jacobian(v, p), ca.jacobian(v, tt)])
-            vc, dv_dp, dv_dt = field(xs[0:3], ts)
-            p_dot = ca.mtimes(m.rotation(xs[0:6]), xs[6:9])
+            vc, dv_dp, dv_dt = field(xs[POS], ts)
+            p_dot = ca.mtimes(m.rotation(xs[ETA]), xs[LIN])
             return m.dynamics(xs, u, vc, dv_dt + ca.mtimes(dv_dp, p_dot))
 
         def f(z: ca.SX) -> ca.SX:  # augmented state [x; t]
-            return ca.vertcat(xdot(z[0:12], z[12]), 1)
+            return ca.vertcat(xdot(z[0:NX], z[NX]), 1)
 
         z = rk4(f, ca.vertcat(x, t), dt, substeps)
-        fn = ca.Function("truth_step", [x, u, t], [z[0:12]], ["x", "u", "t"], ["x_next"])
+        fn = ca.Function("truth_step", [x, u, t], [z[0:NX]], ["x", "u", "t"], ["x_next"])
         self._steppers[key] = fn
         self._flow_refs = getattr(self, "_flow_refs", []) + [flow]  # keep id() keys valid
         return fn

@@ -11,7 +11,7 @@ State ``x = [eta; nu]`` (12):
 * ``eta = [x, y, z, phi, theta, psi]``: position in {n} (NED, m) and ZYX Euler angles (rad);
 * ``nu = [u, v, w, p, q, r]``: the vehicle's body-frame velocity **over ground** (m/s, rad/s).
 
-Input ``u`` (8): thrust of T1..T8 in N; the body wrench is ``tau = B u`` (N, N m).
+Input ``u`` (n): thrust of T1..Tn in N (n = 8 for the Heavy, 6 for the standard frame); the body wrench is ``tau = B u`` (N, N m).
 Flow: ``v_c`` is the water velocity in {n} (m/s) at the vehicle; in {b} it is
 ``nu_c1 = R(Theta)^T v_c`` and the relative velocity is ``nu_r = nu - [nu_c1; 0]``
 (irrotational flow, ``nu_c2 = 0``).
@@ -37,6 +37,7 @@ import numpy as np
 
 from ..geometry import skew
 from .params import VehicleParams
+from .state import ANG, ETA, NU, NX
 from .thrusters import allocation_matrix
 
 __all__ = [
@@ -157,7 +158,7 @@ class VehicleModel:
     """The symbolic 6-DOF model of one vehicle (paper eqs. 1, 2, 4, 6).
 
     Numeric matrices (numpy): ``M_RB``, ``M_A``, ``M`` (6x6), ``D_lin`` and ``D_quad``
-    (6-vectors of diagonal coefficients), ``B`` (6x8 allocation).  Symbolic pieces work on
+    (6-vectors of diagonal coefficients), ``B`` (6 x n allocation).  Symbolic pieces work on
     CasADi SX or MX and are used by the simulator, every MPC and the estimator.
     """
 
@@ -171,6 +172,8 @@ class VehicleModel:
         self.D_lin = np.asarray(p.linear_damping, dtype=float)
         self.D_quad = np.asarray(p.quadratic_damping, dtype=float)
         self.B = allocation_matrix(p.thruster_positions_m, p.thruster_directions)
+        #: Dimensions: state, input (thrusters) and wrench.
+        self.nx, self.nu, self.nw = NX, int(self.B.shape[1]), 6
         self._functions: dict[str, ca.Function] = {}
 
     # --- pieces -------------------------------------------------------------------------
@@ -196,7 +199,7 @@ class VehicleModel:
         return gvect(p.weight_N, p.buoyancy_N, eta[4], eta[3], p.r_g_m, p.r_b_m)
 
     def wrench(self, u: Sym) -> Sym:
-        """Body wrench tau = B u (6,) from thrusts u (8,) in N."""
+        """Body wrench tau = B u (6,) from thrusts u (n,) in N."""
         return ca.mtimes(self.B, u)
 
     def body_flow(self, eta: Sym, flow_ned: Sym) -> Sym:
@@ -206,12 +209,12 @@ class VehicleModel:
     # --- equations of motion ------------------------------------------------------------
     def accelerations(self, x: Sym, tau: Sym, flow_ned: Sym, flow_ned_dot: Sym) -> tuple[Sym, Sym]:
         """Body accelerations (nu_dot, nu_r_dot), each (6,), of eq. (2) under wrench ``tau``."""
-        eta, nu = x[0:6], x[6:12]
+        eta, nu = x[ETA], x[NU]
         R = self.rotation(eta)
         nu_c1 = ca.mtimes(R.T, flow_ned)
         nu_c = ca.vertcat(nu_c1, 0, 0, 0)
         nu_r = nu - nu_c
-        nu_c_dot = ca.vertcat(-ca.mtimes(Smtrx(nu[3:6]), nu_c1) + ca.mtimes(R.T, flow_ned_dot), 0, 0, 0)
+        nu_c_dot = ca.vertcat(-ca.mtimes(Smtrx(x[ANG]), nu_c1) + ca.mtimes(R.T, flow_ned_dot), 0, 0, 0)
         rhs = (
             tau
             - ca.mtimes(self.coriolis_rb(nu), nu)
@@ -226,13 +229,13 @@ class VehicleModel:
     def dynamics(self, x: Sym, u: Sym, flow_ned: Sym, flow_ned_dot: Sym | None = None) -> Sym:
         """State derivative x_dot (12,) of eqs. (1)-(2): truth, Oracle and Naive (flow = 0) models.
 
-        ``u``: thrusts (8,) in N; ``flow_ned``: water velocity in {n} (3,) m/s;
+        ``u``: thrusts (n,) in N; ``flow_ned``: water velocity in {n} (3,) m/s;
         ``flow_ned_dot``: its rate of change along the path (3,) m/s^2, zero if omitted.
         """
         if flow_ned_dot is None:
             flow_ned_dot = ca.DM.zeros(3)
         nu_dot, _ = self.accelerations(x, self.wrench(u), flow_ned, flow_ned_dot)
-        eta_dot = ca.mtimes(Jeta(x[0:6]), x[6:12])
+        eta_dot = ca.mtimes(Jeta(x[ETA]), x[NU])
         return ca.vertcat(eta_dot, nu_dot)
 
     def relative_dynamics(self, x_r: Sym, u: Sym, flow_ned: Sym) -> Sym:
@@ -242,7 +245,7 @@ class VehicleModel:
         dynamics are eq. (6) with no flow terms:
         ``M nu_r_dot + C_RB(nu_r) nu_r + C_A(nu_r) nu_r + D(nu_r) nu_r + g(eta) = tau``.
         """
-        eta, nu_r = x_r[0:6], x_r[6:12]
+        eta, nu_r = x_r[ETA], x_r[NU]
         nu_c = ca.vertcat(self.body_flow(eta, flow_ned), 0, 0, 0)
         eta_dot = ca.mtimes(Jeta(eta), nu_r + nu_c)
         rhs = (
@@ -256,14 +259,14 @@ class VehicleModel:
     def function(self, name: str) -> ca.Function:
         """Cached SX CasADi functions of the model.
 
-        * ``"xdot"``: (x[12], u[8], flow_ned[3], flow_ned_dot[3]) -> x_dot[12]
-        * ``"xdot_relative"``: (x_r[12], u[8], flow_ned[3]) -> x_r_dot[12]
-        * ``"accel"``: (x[12], u[8], flow_ned[3], flow_ned_dot[3]) -> (nu_dot[6], nu_r_dot[6])
+        * ``"xdot"``: (x[12], u[n], flow_ned[3], flow_ned_dot[3]) -> x_dot[12]
+        * ``"xdot_relative"``: (x_r[12], u[n], flow_ned[3]) -> x_r_dot[12]
+        * ``"accel"``: (x[12], u[n], flow_ned[3], flow_ned_dot[3]) -> (nu_dot[6], nu_r_dot[6])
         * ``"rotation"``: (angles[3] = phi, theta, psi) -> R[3x3], {b} -> {n}
         """
         if name not in self._functions:
-            x = ca.SX.sym("x", 12)
-            u = ca.SX.sym("u", 8)
+            x = ca.SX.sym("x", self.nx)
+            u = ca.SX.sym("u", self.nu)
             vc = ca.SX.sym("flow_ned", 3)
             vcd = ca.SX.sym("flow_ned_dot", 3)
             if name == "xdot":

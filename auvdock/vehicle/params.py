@@ -32,13 +32,14 @@ class VehicleParamsError(ValueError):
 
 @dataclass(frozen=True)
 class VehicleParams:
-    """Rigid-body, hydrodynamic and thruster parameters of a 6-DOF, 8-thruster vehicle.
+    """Rigid-body, hydrodynamic and thruster parameters of a 6-DOF vehicle with n thrusters.
 
     Attributes (units in the names): ``mass_kg``; ``weight_N`` and ``buoyancy_N``;
     ``r_g_m`` and ``r_b_m`` (CG and CB in {b}, m); ``inertia_kg_m2`` (Ix, Iy, Iz);
     ``added_mass`` (6 magnitudes: kg, kg m^2); ``linear_damping`` (N s/m, N m s/rad);
-    ``quadratic_damping`` (N s^2/m^2, N m s^2/rad^2); thruster ``positions_m`` (8x3)
-    and unit ``directions`` (8x3) in {b}; ``thrust_limits_N`` (8x2, [reverse, forward]).
+    ``quadratic_damping`` (N s^2/m^2, N m s^2/rad^2); thruster ``positions_m`` (n x 3)
+    and unit ``directions`` (n x 3) in {b}; ``thrust_limits_N`` (n x 2, [reverse, forward]).
+    The number of thrusters n comes from the file (8 for the Heavy, 6 for the standard frame).
     """
 
     name: str
@@ -97,12 +98,17 @@ class VehicleParams:
             dirs = np.asarray(th["directions"], dtype=float)
         except (KeyError, TypeError, ValueError):
             raise VehicleParamsError(
-                "thrusters", "needs positions_m and directions (8 x 3 numbers)"
+                "thrusters", "needs positions_m and directions (n x 3 numbers, one row per thruster)"
             ) from None
-        if pos.shape != (8, 3):
-            raise VehicleParamsError("thrusters.positions_m", f"must be 8 x 3, got shape {pos.shape}")
-        if dirs.shape != (8, 3):
-            raise VehicleParamsError("thrusters.directions", f"must be 8 x 3, got shape {dirs.shape}")
+        if pos.ndim != 2 or pos.shape[1] != 3 or not 1 <= pos.shape[0] <= 16:
+            raise VehicleParamsError(
+                "thrusters.positions_m", f"must be n x 3 (1 to 16 thrusters), got shape {pos.shape}"
+            )
+        n = pos.shape[0]
+        if dirs.shape != (n, 3):
+            raise VehicleParamsError(
+                "thrusters.directions", f"must be {n} x 3 (one per position), got shape {dirs.shape}"
+            )
         norms = np.linalg.norm(dirs, axis=1)
         if np.any(np.abs(norms - 1.0) > 1e-3):
             raise VehicleParamsError("thrusters.directions", "must be unit vectors")
@@ -116,10 +122,10 @@ class VehicleParams:
             )
         lim = np.asarray(limits_table[str(voltage)], dtype=float)
         if lim.shape == (2,):
-            lim = np.tile(lim, (8, 1))
-        if lim.shape != (8, 2) or np.any(lim[:, 0] >= 0) or np.any(lim[:, 1] <= 0):
+            lim = np.tile(lim, (n, 1))
+        if lim.shape != (n, 2) or np.any(lim[:, 0] >= 0) or np.any(lim[:, 1] <= 0):
             raise VehicleParamsError(
-                f"thrusters.limits_N.{voltage}", "must be [reverse < 0, forward > 0] (or 8 such pairs)"
+                f"thrusters.limits_N.{voltage}", f"must be [reverse < 0, forward > 0] (or {n} such pairs)"
             )
 
         return cls(

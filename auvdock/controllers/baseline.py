@@ -1,0 +1,103 @@
+"""Naive, Kinematic and Oracle MPC (paper section V.C), with their settings classes.
+
+=============  ==========================================  ========================
+name           prediction model                            flow it is given
+=============  ==========================================  ========================
+``naive``      eqs. (1)-(2) with no current                none
+``kinematic``  current in the kinematics only, eq. (6)     true flow (Assumption 3)
+``oracle``     eqs. (1)-(2), full                          true flow (Assumption 3)
+=============  ==========================================  ========================
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+
+from ..dock import HeaveDock
+from ..vehicle import Vehicle
+from .base import ControlOutput, Measurement, Plan
+from .mpc import DockingMPC
+from .settings import MPCSettings
+
+__all__ = [
+    "NaiveSettings",
+    "KinematicSettings",
+    "OracleSettings",
+    "BaselineMPC",
+    "build_mpc",
+]
+
+
+class NaiveSettings(MPCSettings):
+    """Naive MPC: predicts with eqs. (1)-(2) and no current."""
+
+    type: Literal["naive"] = "naive"
+
+
+class KinematicSettings(MPCSettings):
+    """Kinematic MPC: the true current in the kinematics only (eq. 6); reads the true flow."""
+
+    type: Literal["kinematic"] = "kinematic"
+
+
+class OracleSettings(MPCSettings):
+    """Oracle MPC: the full model with the true current (Assumption 3); reads the true flow."""
+
+    type: Literal["oracle"] = "oracle"
+
+
+def build_mpc(
+    settings: MPCSettings, vehicle: Vehicle, dock: HeaveDock, prediction: str, solver: str, **kw
+) -> DockingMPC:
+    """The MPC of eq. (10) with the given prediction model and (resolved) solver name.
+
+    The input-rate weight R of the settings is on normalised thrust ``u_i / u_max,i``
+    (dimensionless); in newtons it is ``R_i / u_max,i^2``.
+    """
+    u_max = vehicle.thrust_max
+    R_newton = np.asarray(settings.weights.R_for(vehicle.n_thrusters), dtype=float) / u_max**2
+    return DockingMPC(
+        vehicle,
+        dock,
+        horizon=settings.horizon_steps,
+        dt=settings.dt_s,
+        Q=settings.weights.Q,
+        R=R_newton,
+        P=settings.weights.P,
+        v_rel_max=settings.bounds.relative_velocity_max_m_s,
+        w_max=settings.bounds.angular_rate_max_rad_s,
+        prediction=prediction,  # type: ignore[arg-type]
+        solver=solver,
+        max_iter=settings.solver.max_iter,
+        tol=settings.solver.tol,
+        **kw,
+    )
+
+
+class BaselineMPC:
+    """Naive, Kinematic or Oracle MPC: one :class:`DockingMPC` solve per step."""
+
+    _PREDICTION = {"naive": "naive", "kinematic": "kinematic", "oracle": "full"}
+    extra_series: dict[str, tuple[int, ...]] = {}
+
+    def __init__(self, settings: MPCSettings, vehicle: Vehicle, dock: HeaveDock, solver: str) -> None:
+        if settings.type not in self._PREDICTION:
+            raise ValueError(f"not a baseline controller: {settings.type!r}")
+        self.name = settings.type
+        self.mpc = build_mpc(settings, vehicle, dock, self._PREDICTION[self.name], solver)
+
+    @property
+    def needs_true_flow(self) -> bool:
+        """Kinematic and Oracle MPC are given the true flow (Assumption 3)."""
+        return self.name != "naive"
+
+    def reset(self) -> None:
+        self.mpc.reset()
+
+    def step(self, meas: Measurement, u_prev: np.ndarray) -> ControlOutput:
+        if self.needs_true_flow and meas.flow_ned is None:
+            raise ValueError(f"{self.name} MPC needs the true flow at the vehicle (Assumption 3)")
+        r = self.mpc.solve(meas.t, meas.state, u_prev, None if self.name == "naive" else meas.flow_ned)
+        return ControlOutput(r.thrust, r.status, r.solve_time_s, Plan(r.plan_state, r.plan_thrust))

@@ -1,0 +1,176 @@
+"""Every controller, registered in one place (:data:`CONTROLLERS`).
+
+A controller is a module with a settings class (an :class:`~auvdock.controllers.settings.MPCSettings`
+with a literal ``type``) and a class that follows :class:`~auvdock.controllers.base.Controller`;
+registering it is one :class:`ControllerEntry` line below.  The mission's ``controller``
+section is the discriminated union of the registered settings classes (:func:`settings_union`),
+the CLI's ``--controller`` choices are :func:`controller_names`, and :func:`build_controller`
+makes one from its settings.
+
+=============  ======================================================  ===============  ========
+name           what it is                                              reads true flow  auto
+=============  ======================================================  ===============  ========
+``naive``      MPC, eqs. (1)-(2) with no current                       no               rti
+``kinematic``  MPC, current in the kinematics only (eq. 6)             yes (Assump. 3)  rti
+``oracle``     MPC, eqs. (1)-(2) with the true current                 yes (Assump. 3)  rti
+``sequential`` FSE-MPC: perception law (9) + MPC on the estimated flow no               sqp
+``optimized``  FSE-MPC: cost (10) - alpha F, estimated flow            no               rti
+=============  ======================================================  ===============  ========
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Annotated, Any, Union
+
+from pydantic import Field
+
+from ..dock import HeaveDock
+from ..estimator import EstimatorSettings
+from ..sensors import SensorSettings
+from ..vehicle import Vehicle
+from .base import Controller
+from .baseline import BaselineMPC, KinematicSettings, NaiveSettings, OracleSettings
+from .fse import FSEMPC, OptimizedSettings, SequentialSettings
+from .settings import MPCSettings
+from .solvers import SOLVERS
+
+__all__ = [
+    "ControllerEntry",
+    "CONTROLLERS",
+    "controller_names",
+    "settings_union",
+    "settings_for",
+    "resolve_solver",
+    "build_controller",
+]
+
+
+@dataclass(frozen=True)
+class ControllerEntry:
+    """One registered controller.
+
+    Attributes
+    ----------
+    name : str
+        Its ``type`` in missions and ``--controller``.
+    settings : type
+        Its settings class (a pydantic model with ``type: Literal[name]``).
+    build : callable
+        ``build(settings, vehicle, dock, solver, estimator, sensors) -> Controller``.
+    auto_solver : str
+        What solver ``auto`` means for it (README, Performance: how it was chosen).
+    reads_true_flow : bool
+        Whether its definition gives it the true flow (Assumption 3); outputs say so.
+    summary : str
+        One line for listings.
+    """
+
+    name: str
+    settings: type[MPCSettings]
+    build: Callable[..., Controller]
+    auto_solver: str
+    reads_true_flow: bool
+    summary: str
+
+
+def _baseline(settings, vehicle, dock, solver, estimator, sensors) -> Controller:
+    return BaselineMPC(settings, vehicle, dock, solver)
+
+
+def _fse(settings, vehicle, dock, solver, estimator, sensors) -> Controller:
+    return FSEMPC(settings, vehicle, dock, solver, estimator, sensors)
+
+
+#: Every controller, in the paper's order: the one place to register a new one.
+CONTROLLERS: dict[str, ControllerEntry] = {
+    e.name: e
+    for e in (
+        ControllerEntry("naive", NaiveSettings, _baseline, "rti", False, "MPC, no current in the model"),
+        ControllerEntry(
+            "kinematic", KinematicSettings, _baseline, "rti", True, "MPC, true current in the kinematics"
+        ),
+        ControllerEntry("oracle", OracleSettings, _baseline, "rti", True, "MPC, full model, true current"),
+        ControllerEntry(
+            "sequential", SequentialSettings, _fse, "sqp", False, "FSE-MPC: perception law (9), then MPC"
+        ),
+        ControllerEntry("optimized", OptimizedSettings, _fse, "rti", False, "FSE-MPC: cost (10) - alpha F"),
+    )
+}
+
+
+def controller_names() -> tuple[str, ...]:
+    """The registered controllers' names, in order."""
+    return tuple(CONTROLLERS)
+
+
+def settings_union() -> Any:
+    """The mission's ``controller`` type: the registered settings classes, told apart by ``type``."""
+    members = tuple(e.settings for e in CONTROLLERS.values())
+    return Annotated[Union[members], Field(discriminator="type")]  # noqa: UP007 (a runtime tuple)
+
+
+def settings_for(name: str, like: MPCSettings | None = None) -> MPCSettings:
+    """Settings of controller ``name``: the fields ``like`` shares with it, defaults for the rest.
+
+    Switching ``oracle`` settings to ``optimized`` keeps horizon, weights, bounds and solver
+    and takes the default ``alpha``; switching back drops ``alpha``.
+    """
+    if name not in CONTROLLERS:
+        raise ValueError(f"unknown controller {name!r} (known: {', '.join(CONTROLLERS)})")
+    cls = CONTROLLERS[name].settings
+    if like is None:
+        return cls()
+    if like.type == name:
+        return like
+    shared = {k: v for k, v in like.model_dump().items() if k in cls.model_fields and k != "type"}
+    return cls.model_validate({**shared, "type": name})
+
+
+def resolve_solver(name: str, controller: str) -> str:
+    """The solver ``name`` stands for with ``controller``: itself, or for ``auto`` the controller's choice.
+
+    ``auto`` was chosen by docking all six paper cases with every controller x solver
+    (``auvdock bench --case 1 ... --case 6 --solvers rti,sqp,ipopt``; README, Performance):
+    ``rti`` docks exactly the cases IPOPT docks with Naive, Kinematic, Oracle and Optimized
+    FSE-MPC, in a third of the time per step (a fifth for Optimized).  With Sequential
+    FSE-MPC it times out in case 4, which IPOPT and SQP dock: the perception wrench, unknown
+    to the MPC, moves the vehicle off the shifted plan every step, and one QP step per
+    control step does not catch up; SQP iterated to convergence does.
+    """
+    if name != "auto":
+        if name not in SOLVERS:
+            raise ValueError(f"unknown solver {name!r} (known: auto, {', '.join(SOLVERS)})")
+        return name
+    if controller not in CONTROLLERS:
+        raise ValueError(f"unknown controller {controller!r} (known: {', '.join(CONTROLLERS)})")
+    return CONTROLLERS[controller].auto_solver
+
+
+def build_controller(
+    settings: MPCSettings,
+    vehicle: Vehicle,
+    dock: HeaveDock,
+    estimator: EstimatorSettings | None = None,
+    sensors: SensorSettings | None = None,
+) -> Controller:
+    """The controller ``settings.type`` describes, built once for a run.
+
+    Parameters
+    ----------
+    settings : MPCSettings
+        A registered controller's settings (the mission's ``controller`` section).
+    vehicle, dock : Vehicle, HeaveDock
+        The prediction model's vehicle and the dock whose motion is known (Assumption 2).
+    estimator, sensors : EstimatorSettings, SensorSettings, optional
+        The flow estimator's settings and the sensor noise it accounts for (FSE-MPCs);
+        defaults when omitted.
+    """
+    entry = CONTROLLERS.get(settings.type)
+    if entry is None:
+        raise ValueError(f"unknown controller {settings.type!r} (known: {', '.join(CONTROLLERS)})")
+    solver = resolve_solver(settings.solver.name, entry.name)
+    return entry.build(
+        settings, vehicle, dock, solver, estimator or EstimatorSettings(), sensors or SensorSettings()
+    )

@@ -1,0 +1,113 @@
+"""Settings every MPC controller shares (paper eq. 10; parameters.md section 4).
+
+Each controller type has its own settings class (a :class:`MPCSettings` with a literal
+``type`` and its own fields, in the controller's module); the mission's ``controller``
+section is the discriminated union of them (:func:`auvdock.controllers.registry.settings_union`),
+so a field of one controller type given to another (``alpha`` to ``oracle``) is an error.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any
+
+from pydantic import AfterValidator, Field, field_validator
+
+from ..schema import Strict
+
+__all__ = ["WeightsSpec", "BoundsSpec", "SolverSpec", "MPCSettings", "DEFAULT_Q"]
+
+#: Diagonal stage and terminal weights of the 12-state error (paper; parameters.md section 4).
+DEFAULT_Q = [1.0, 1.0, 1.0, 100.0, 100.0, 100.0, 1.0, 1.0, 1.0, 100.0, 100.0, 100.0]
+
+PosFloat = Annotated[float, Field(gt=0)]
+NonNegFloat = Annotated[float, Field(ge=0)]
+
+
+def _fixed_len(n: int) -> AfterValidator:
+    def check(v: list[Any]) -> list[Any]:
+        if len(v) != n:
+            raise ValueError(f"must have {n} values, got {len(v)}")
+        return v
+
+    return AfterValidator(check)
+
+
+Vec12NonNeg = Annotated[list[NonNegFloat], _fixed_len(12)]
+Vec3Pos = Annotated[list[PosFloat], _fixed_len(3)]
+
+
+class WeightsSpec(Strict):
+    """MPC weights of cost (10): stage Q and terminal P on the 12-state error, R on input rate.
+
+    ``R`` is on normalised thrust ``u_i / u_max,i`` (dimensionless); one number applies to
+    every thruster, a list gives one per thruster (its length must be the vehicle's number
+    of thrusters, checked when the mission is read).
+    """
+
+    Q: Vec12NonNeg = Field(default=list(DEFAULT_Q), description="12 diagonal stage weights")
+    R: list[NonNegFloat] = Field(
+        default=[10.0],
+        description="input-rate weight per thruster on normalised thrust (one value: every thruster)",
+    )
+    P: Vec12NonNeg = Field(default=list(DEFAULT_Q), description="12 diagonal terminal weights")
+
+    @field_validator("R", mode="before")
+    @classmethod
+    def _r(cls, v: Any) -> Any:
+        if isinstance(v, int | float) and not isinstance(v, bool):
+            return [v]
+        return v
+
+    def R_for(self, n_thrusters: int) -> list[float]:
+        """R as ``n_thrusters`` values (ValueError if a list of another length was given)."""
+        if len(self.R) == 1:
+            return self.R * n_thrusters
+        if len(self.R) != n_thrusters:
+            raise ValueError(f"must have {n_thrusters} values (one per thruster) or one, got {len(self.R)}")
+        return list(self.R)
+
+
+class BoundsSpec(Strict):
+    """State bounds of the MPC (parameters.md section 4)."""
+
+    relative_velocity_max_m_s: Vec3Pos = Field(
+        default=[2.5, 2.5, 2.5], description="|u_r|, |v_r|, |w_r|, m/s"
+    )
+    angular_rate_max_rad_s: Vec3Pos = Field(default=[0.25, 0.25, 0.25], description="|p|, |q|, |r|, rad/s")
+
+
+class SolverSpec(Strict):
+    """Numerical solver of the MPC problem (:mod:`auvdock.controllers.solvers`)."""
+
+    name: str = Field(
+        default="auto",
+        description=(
+            "sqp (sqpmethod + qrqp, iterated to convergence), rti (real-time iteration: one "
+            "Gauss-Newton QP step per control step), ipopt (interior point) or auto (the "
+            "controller's own choice; auvdock.controllers.solvers)"
+        ),
+    )
+    max_iter: Annotated[int, Field(ge=1, le=10_000)] = Field(
+        default=100, description="iteration limit per solve"
+    )
+    tol: PosFloat = Field(default=1e-6, description="convergence tolerance")
+
+    @field_validator("name")
+    @classmethod
+    def _known(cls, v: str) -> str:
+        from .solvers import solver_names
+
+        if v not in solver_names():
+            raise ValueError(f"unknown solver {v!r} (known: {', '.join(solver_names())})")
+        return v
+
+
+class MPCSettings(Strict):
+    """What every docking MPC has: horizon, period, weights, bounds and solver."""
+
+    type: str = Field(description="controller type (auvdock.controllers.registry)")
+    horizon_steps: Annotated[int, Field(ge=1, le=200)] = Field(default=10, description="N, steps")
+    dt_s: PosFloat = Field(default=0.05, description="control period and MPC step, s")
+    weights: WeightsSpec = Field(default_factory=WeightsSpec)
+    bounds: BoundsSpec = Field(default_factory=BoundsSpec)
+    solver: SolverSpec = Field(default_factory=SolverSpec)

@@ -1,0 +1,41 @@
+"""Outcome codes of one controller step, recorded per step as ``solver_status`` (int8).
+
+=====  ==================  ===============================================================
+code   name                meaning
+=====  ==================  ===============================================================
+0      ``ok``              the step's optimisation converged; its first input is applied
+1      ``not_converged``   it stopped early (iteration limit); a fallback input is applied
+2      ``failed``          it failed (or was not attempted: non-finite input); fallback
+3      ``fallback_zero``   it failed and there was no plan to fall back on: zero thrust
+4      ``no_step``         no controller step: the row records the run's final state
+=====  ==================  ===============================================================
+
+A controller that is not an optimiser reports ``ok``.  Results files store this table as
+JSON (``solver_status_codes``), so a reader never depends on this module's numbering.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "STATUS_OK",
+    "STATUS_NOT_CONVERGED",
+    "STATUS_FAILED",
+    "STATUS_FALLBACK_ZERO",
+    "STATUS_NO_STEP",
+    "STATUS_NAMES",
+]
+
+STATUS_OK = 0
+STATUS_NOT_CONVERGED = 1
+STATUS_FAILED = 2
+STATUS_FALLBACK_ZERO = 3
+STATUS_NO_STEP = 4
+
+#: Code -> name.
+STATUS_NAMES: dict[int, str] = {
+    STATUS_OK: "ok",
+    STATUS_NOT_CONVERGED: "not_converged",
+    STATUS_FAILED: "failed",
+    STATUS_FALLBACK_ZERO: "fallback_zero",
+    STATUS_NO_STEP: "no_step",
+}
