@@ -9,8 +9,8 @@ import pytest
 from typer.testing import CliRunner
 
 from auvdock.cli import app
-from auvdock.mission import load_mission
 from auvdock.controllers.status import STATUS_NO_STEP, STATUS_OK
+from auvdock.mission import load_mission
 from auvdock.results import read_run
 from auvdock.simulation import simulate
 

@@ -9,8 +9,8 @@ import pytest
 
 from auvdock.controllers import SOLVERS, build_controller, resolve_solver
 from auvdock.controllers.rti import COLD_START_MAX_ITER
-from auvdock.mission import load_mission
 from auvdock.controllers.status import STATUS_FAILED, STATUS_OK
+from auvdock.mission import load_mission
 from auvdock.simulation import simulate
 
 ROOT = Path(__file__).resolve().parents[1]

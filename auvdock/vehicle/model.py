@@ -11,7 +11,8 @@ State ``x = [eta; nu]`` (12):
 * ``eta = [x, y, z, phi, theta, psi]``: position in {n} (NED, m) and ZYX Euler angles (rad);
 * ``nu = [u, v, w, p, q, r]``: the vehicle's body-frame velocity **over ground** (m/s, rad/s).
 
-Input ``u`` (n): thrust of T1..Tn in N (n = 8 for the Heavy, 6 for the standard frame); the body wrench is ``tau = B u`` (N, N m).
+Input ``u`` (n): thrust of T1..Tn in N (n = 8 for the Heavy, 6 for the standard frame);
+the body wrench is ``tau = B u`` (N, N m).
 Flow: ``v_c`` is the water velocity in {n} (m/s) at the vehicle; in {b} it is
 ``nu_c1 = R(Theta)^T v_c`` and the relative velocity is ``nu_r = nu - [nu_c1; 0]``
 (irrotational flow, ``nu_c2 = 0``).
