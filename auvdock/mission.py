@@ -89,7 +89,7 @@ class VehicleSpec(Strict):
 
     preset: str | None = Field(
         default=None,
-        description="shipped parameter set: bluerov2_heavy (default) or bluerov2_heavy_vonbenzon",
+        description="shipped parameter set: bluerov2_heavy (default, 8 thrusters), bluerov2_heavy_vonbenzon or bluerov2 (standard frame, 6 thrusters)",
     )
     file: str | None = Field(
         default=None, description="path of a parameter YAML file (relative to the mission)"

@@ -27,6 +27,23 @@ console = Console()
 err_console = Console(stderr=True)
 
 
+#: Set once a command has said why it stopped on Ctrl-C (see :func:`exit_interrupted`).
+_interrupt_reported = False
+
+
+def exit_interrupted(message: str = "interrupted") -> None:
+    """Say in one line what Ctrl-C left behind (e.g. where the results are), then exit 130."""
+    global _interrupt_reported
+    err_console.print(message, markup=False, highlight=False, soft_wrap=True)
+    _interrupt_reported = True
+    raise typer.Exit(code=130)
+
+
+def interrupt_reported() -> bool:
+    """Whether a command already printed its Ctrl-C line."""
+    return _interrupt_reported
+
+
 def fail_input(message: str) -> None:
     """Print one line on stderr and exit with status 2 (bad input)."""
     err_console.print(f"error: {message}", markup=False, highlight=False, soft_wrap=True)

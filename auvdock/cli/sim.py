@@ -13,7 +13,7 @@ from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeEl
 from rich.table import Table
 
 from ..mission import CONTROLLER_TYPES, MissionError
-from .app import app, console, err_console, fail_input, load_or_exit
+from .app import app, console, err_console, exit_interrupted, fail_input, load_or_exit
 
 if TYPE_CHECKING:
     from ..simulation import Progress as SimProgress
@@ -136,8 +136,7 @@ def sim(
         try:
             summary = simulate(m, out=h5, progress=on_step, timeout_s=timeout, autopilot=ap)
         except KeyboardInterrupt:
-            err_console.print(f"interrupted: the steps so far are in {h5} (complete = False)")
-            raise typer.Exit(code=130) from None
+            exit_interrupted(f"interrupted: the steps so far are in {h5} (complete = False)")
         bar.update(task, completed=summary.outcome["end_time_s"])
 
     console.print(_summary_table(f"{m.name} / {name}", summary.outcome))
