@@ -201,3 +201,14 @@ def test_ctrl_c_during_a_solve_is_an_interrupt_not_solver_trouble() -> None:
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, old)
     assert statuses and all(s == STATUS_OK for s in statuses)
+
+
+def test_six_thruster_bluerov2_docks_in_the_tank() -> None:
+    """Dimensions come from the vehicle file: the standard 6-thruster frame flies the same loop."""
+    m = load_mission(ROOT / "missions" / "tank_bluerov2.yaml")
+    v = m.build_vehicle()
+    assert v.n_thrusters == 6 and v.allocation.shape == (6, 6)
+    s = simulate(m)
+    assert s.docked, s.outcome
+    assert s.outcome["solver_failures"] == 0
+    assert s.outcome["time_to_dock_s"] < 40.0

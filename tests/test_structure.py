@@ -1,0 +1,154 @@
+"""The house rules that a reader cannot see at a glance: no import cycles between modules,
+and the missions and sweeps installed with the package."""
+
+from __future__ import annotations
+
+import ast
+import os
+import subprocess
+import sys
+import venv
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+PKG = ROOT / "auvdock"
+
+
+def _module_name(path: Path) -> str:
+    rel = path.relative_to(ROOT).with_suffix("")
+    parts = list(rel.parts)
+    if parts[-1] == "__init__":
+        parts = parts[:-1]
+    return ".".join(parts)
+
+
+def _imports(path: Path, name: str, modules: set[str]) -> set[str]:
+    """auvdock modules that ``name`` imports anywhere (module level or inside functions),
+    except under ``if TYPE_CHECKING``.  ``from pkg import sub`` counts as importing ``pkg.sub``."""
+    tree = ast.parse(path.read_text())
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    skip: set[int] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
+            skip.update(id(n) for child in node.body for n in ast.walk(child))
+    out: set[str] = set()
+    for node in ast.walk(tree):
+        if id(node) in skip:
+            continue
+        if isinstance(node, ast.Import):
+            out.update(a.name for a in node.names if a.name.startswith("auvdock"))
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")
+                base = base[: len(base) - (node.level - 1)]
+                mod = ".".join(base + ([node.module] if node.module else []))
+            else:
+                mod = node.module or ""
+            if not mod.startswith("auvdock"):
+                continue
+            subs = {f"{mod}.{a.name}" for a in node.names} & modules
+            out.update(subs)
+            if len(subs) < len(node.names):
+                out.add(mod)
+    return out & modules
+
+
+def test_no_import_cycles() -> None:
+    """No module depends on itself through others, deferred (function-level) imports included.
+
+    A package's ``__init__`` may re-export its submodules, so a submodule never imports its
+    own package back (it imports the sibling that holds the name)."""
+    files = {_module_name(p): p for p in PKG.rglob("*.py")}
+    names = set(files)
+    graph = {name: _imports(path, name, names) - {name} for name, path in files.items()}
+    cycles: list[list[str]] = []
+    state: dict[str, int] = {}
+    stack: list[str] = []
+
+    def dfs(n: str) -> None:
+        state[n] = 1
+        stack.append(n)
+        for m in sorted(graph[n]):
+            if state.get(m) == 1:
+                cycles.append(stack[stack.index(m) :] + [m])
+            elif m not in state:
+                dfs(m)
+        stack.pop()
+        state[n] = 2
+
+    for n in sorted(graph):
+        if n not in state:
+            dfs(n)
+    assert not cycles, "import cycles:\n" + "\n".join(" -> ".join(c) for c in cycles)
+
+
+def test_shipped_missions_are_in_the_package() -> None:
+    from auvdock.catalog import PAPER_MISSIONS, missions_dir, resolve, shipped_missions, shipped_sweeps
+
+    names = {f.name for f in shipped_missions()}
+    assert set(PAPER_MISSIONS) <= names and {"tank_0p6hz", "tank_bluerov2"} <= names
+    assert {f.name for f in shipped_sweeps()} >= {"current_speed", "tank_trials"}
+    assert missions_dir().parent == PKG
+    assert resolve("gyre") == missions_dir() / "gyre.yaml"
+    assert resolve("no_such_mission") == Path("no_such_mission")
+
+
+@pytest.mark.skipif(os.environ.get("AUVDOCK_SKIP_INSTALL_TEST") == "1", reason="AUVDOCK_SKIP_INSTALL_TEST=1")
+def test_plain_install_runs_shipped_missions_from_any_folder(tmp_path: Path) -> None:
+    """``pip install .`` (not editable) into a fresh venv, then from another folder
+    ``auvdock missions`` lists them and ``auvdock sim gyre`` docks.  The venv sees this
+    machine's packages (no network needed); auvdock itself comes from the install."""
+    env_dir = tmp_path / "venv"
+    venv.create(env_dir, system_site_packages=True, with_pip=True)
+    py = env_dir / "bin" / "python"
+    build = tmp_path / "src"  # a copy, so the install does not write into the checkout
+    subprocess.run(
+        ["git", "-C", str(ROOT), "ls-files", "-z"], check=True, capture_output=True
+    )  # tracked files only
+    files = subprocess.run(
+        ["git", "-C", str(ROOT), "ls-files", "-z"], check=True, capture_output=True
+    ).stdout.split(b"\0")
+    for f in files:
+        if not f:
+            continue
+        src = ROOT / f.decode()
+        if src.is_symlink() or not src.is_file():
+            continue
+        dst = build / f.decode()
+        dst.parent.mkdir(parents=True, exist_ok=True)
+        dst.write_bytes(src.read_bytes())
+    r = subprocess.run(
+        [str(py), "-m", "pip", "install", "--no-deps", "--no-build-isolation", "-q", str(build)],
+        capture_output=True,
+        text=True,
+    )
+    assert r.returncode == 0, r.stderr
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    env = {**os.environ, "AUVDOCK_COMPILE": "never", "PYTHONPATH": ""}
+    where = subprocess.run(
+        [str(py), "-c", "import auvdock; print(auvdock.__file__)"],
+        cwd=elsewhere,
+        env=env,
+        capture_output=True,
+        text=True,
+    )
+    assert str(env_dir) in where.stdout, where
+    auvdock = env_dir / "bin" / "auvdock"
+    listing = subprocess.run(
+        [str(auvdock), "missions"], cwd=elsewhere, env=env, capture_output=True, text=True
+    )
+    assert listing.returncode == 0, listing.stderr
+    assert "gyre" in listing.stdout and "current_speed" in listing.stdout
+    sim = subprocess.run(
+        [str(auvdock), "sim", "gyre", "--no-plots", "--out", "out"],
+        cwd=elsewhere,
+        env=env,
+        capture_output=True,
+        text=True,
+    )
+    assert sim.returncode == 0, sim.stdout + sim.stderr
+    assert (elsewhere / "out" / "gyre_oracle.h5").is_file()
+    assert sys.executable  # the test's own interpreter is untouched
