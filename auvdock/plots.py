@@ -20,6 +20,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from auvdock.results import RunResults
+from auvdock.vehicle.state import POS
 
 __all__ = ["plot_run", "FlowFieldLike"]
 
@@ -183,7 +184,7 @@ def _mark_ends(ax: Axes, *coords: np.ndarray, three_d: bool = False) -> None:
 def _trajectory_3d(results: RunResults) -> Figure:
     fig = _new_figure((8.0, 6.5))
     ax = fig.add_subplot(projection="3d")
-    north, east, down = results.state[:, 0], results.state[:, 1], results.state[:, 2]
+    north, east, down = results.state[:, POS].T
     ax.plot(east, north, down, color="tab:blue", lw=1.5, label="vehicle")
     _mark_ends(ax, east, north, down, three_d=True)
     dock = results.dock_position_m
@@ -208,7 +209,7 @@ def _trajectory_3d(results: RunResults) -> Figure:
 def _top_view(results: RunResults, flow_field: FlowFieldLike | None) -> Figure:
     fig = _new_figure((8.0, 7.0))
     ax = fig.add_subplot()
-    pos = results.state[:, :3]
+    pos = results.state[:, POS]
     dock = results.dock_position_m
     pts = np.concatenate([pos[_finite_rows(pos)], dock[_finite_rows(dock)]])
 

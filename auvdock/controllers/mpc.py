@@ -42,7 +42,7 @@ from ..dock import HeaveDock
 from ..interrupts import SigintDeferred
 from ..vehicle import Vehicle
 from ..vehicle.model import rk4
-from ..vehicle.state import ANG, ATT, LIN, NU, POS, YAW
+from ..vehicle.state import ANG, ATT, ETA, LIN, NU, POS, YAW
 from .solvers import SOLVERS, Problem, SolveResult
 from .status import STATUS_FAILED, STATUS_FALLBACK_ZERO, STATUS_NOT_CONVERGED, STATUS_OK
 
@@ -212,12 +212,12 @@ class DockingMPC:
 
         def over_ground(xk: ca.SX) -> ca.SX:
             if self.prediction == "kinematic":
-                return xk[NU] + ca.vertcat(model.body_flow(xk[0:6], flow), 0, 0, 0)
+                return xk[NU] + ca.vertcat(model.body_flow(xk[ETA], flow), 0, 0, 0)
             return xk[NU]
 
         def error(k: int) -> ca.SX:
             xk = X[:, k]
-            R_nb = model.rotation(xk[0:6])
+            R_nb = model.rotation(xk[ETA])
             v_ref = ca.mtimes(R_nb.T, dock_v[:, k])
             return ca.vertcat(
                 xk[POS] - dock_p[:, k],
