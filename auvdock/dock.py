@@ -14,6 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .vehicle.state import LIN, NX, POS, YAW
+
 __all__ = ["HeaveDock"]
 
 
@@ -85,10 +87,10 @@ class HeaveDock:
         p = self.position(t)
         v = self.velocity(t)
         shape = p.shape[:-1]
-        out = np.zeros(shape + (12,))
-        out[..., 0:3] = p
-        out[..., 5] = self.heading_rad
-        out[..., 6:9] = v
+        out = np.zeros(shape + (NX,))
+        out[..., POS] = p
+        out[..., YAW] = self.heading_rad
+        out[..., LIN] = v
         return out
 
 

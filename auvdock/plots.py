@@ -56,7 +56,7 @@ def plot_run(
       the recorded ``flow_ned_m_s`` sub-sampled along the path.
     * ``distance.png`` -- vehicle-to-dock distance vs time, with the docking tolerance
       (attribute ``tolerance_m``) as a horizontal line if recorded.
-    * ``thrust.png`` -- the 8 thruster forces (N) vs time, held over each step.
+    * ``thrust.png`` -- the thruster forces (N) vs time, held over each step.
 
     Written when the extras exist:
 

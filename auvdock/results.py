@@ -587,7 +587,7 @@ class RunResults:
     ----------
     time_s : ndarray, shape (T,)
     state : ndarray, shape (T, 12)
-    thrust_N : ndarray, shape (T, 8)
+    thrust_N : ndarray, shape (T, n), n the number of thrusters
     wrench : ndarray, shape (T, 6)
     flow_ned_m_s : ndarray, shape (T, 3)
     dock_position_m : ndarray, shape (T, 3)
