@@ -45,7 +45,7 @@ import numpy as np
 from pydantic import Field
 
 from .geometry import skew
-from .schema import Strict
+from .schema import Strict, Vec3
 from .vehicle import Vehicle
 from .vehicle.model import rk4
 from .vehicle.state import ATT, LIN, NX
@@ -85,9 +85,7 @@ def flow_transition(nu2, dt: float, lib=np):
 class EstimatorSettings(Strict):
     """The flow Kalman filter's settings (parameters.md section 5)."""
 
-    prior_flow_ned_m_s: Annotated[list[float], Field(min_length=3, max_length=3)] = Field(
-        default=[0.0, 0.0, 0.0], description="prior flow estimate, m/s"
-    )
+    prior_flow_ned_m_s: Vec3 = Field(default=[0.0, 0.0, 0.0], description="prior flow estimate, m/s")
     prior_std_m_s: Annotated[float, Field(gt=0)] = Field(
         default=3.0, description="prior standard deviation per axis, m/s (contains the 2 m/s of case 4)"
     )

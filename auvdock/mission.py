@@ -22,7 +22,6 @@ from typing import Annotated, Any, Literal
 import numpy as np
 import yaml
 from pydantic import (
-    AfterValidator,
     Field,
     ValidationError,
     field_validator,
@@ -35,7 +34,7 @@ from .controllers.solvers import solver_names
 from .dock import HeaveDock
 from .estimator import EstimatorSettings
 from .flow import ConstantCurrent, DoubleGyre, FlowField, StillWater, flow_case, flow_case_names
-from .schema import Strict, first_error
+from .schema import NonNegFloat, PosFloat, Strict, Vec3, Vec12, first_error, fixed_len
 from .sensors import SensorSettings
 from .vehicle import Vehicle, load_vehicle, preset_names
 from .vehicle.params import VehicleParamsError
@@ -53,9 +52,6 @@ __all__ = [
 CONTROLLER_TYPES = controller_names()
 SOLVER_NAMES = solver_names()
 
-PosFloat = Annotated[float, Field(gt=0)]
-NonNegFloat = Annotated[float, Field(ge=0)]
-
 
 class MissionError(Exception):
     """A mission file is missing or wrong.  ``str(err)`` is the one line shown to users."""
@@ -68,28 +64,15 @@ class MissionError(Exception):
         super().__init__(where + problem)
 
 
-def _fixed_len(n: int):
-    def check(v: list[Any]) -> list[Any]:
-        if len(v) != n:
-            raise ValueError(f"must have {n} values, got {len(v)}")
-        return v
-
-    return AfterValidator(check)
-
-
-Vec3 = Annotated[list[float], _fixed_len(3)]
-Vec6Pos = Annotated[list[PosFloat], _fixed_len(6)]
-Vec12 = Annotated[list[float], _fixed_len(12)]
-Vec12NonNeg = Annotated[list[NonNegFloat], _fixed_len(12)]
-Vec3Pos = Annotated[list[PosFloat], _fixed_len(3)]
-
-
 class VehicleSpec(Strict):
     """Which vehicle: a shipped preset or a parameter file, plus overrides."""
 
     preset: str | None = Field(
         default=None,
-        description="shipped parameter set: bluerov2_heavy (default, 8 thrusters), bluerov2_heavy_vonbenzon or bluerov2 (standard frame, 6 thrusters)",
+        description=(
+            "shipped parameter set: bluerov2_heavy (default, 8 thrusters), "
+            "bluerov2_heavy_vonbenzon or bluerov2 (standard frame, 6 thrusters)"
+        ),
     )
     file: str | None = Field(
         default=None, description="path of a parameter YAML file (relative to the mission)"
@@ -317,7 +300,7 @@ class SyntheticCameraSpec(Strict):
         default=[0.0, 0.0, 0.0],
         description="where the rendered dock really is relative to the mission's dock, NED m",
     )
-    dropout_s: list[Annotated[list[NonNegFloat], _fixed_len(2)]] = Field(
+    dropout_s: list[Annotated[list[NonNegFloat], fixed_len(2)]] = Field(
         default_factory=list,
         description="[start, end] mission times (s) during which no marker is visible (rehearse losses)",
     )

@@ -15,9 +15,43 @@ import typing
 from collections.abc import Sequence
 from typing import Annotated, Any
 
-from pydantic import BaseModel, ConfigDict, ValidationError
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError
 
-__all__ = ["Strict", "first_error", "unwrap"]
+__all__ = [
+    "Strict",
+    "first_error",
+    "field_at",
+    "unwrap",
+    "fixed_len",
+    "PosFloat",
+    "NonNegFloat",
+    "Vec3",
+    "Vec3Pos",
+    "Vec6Pos",
+    "Vec12",
+    "Vec12NonNeg",
+]
+
+
+def fixed_len(n: int) -> AfterValidator:
+    """A validator: the list has exactly ``n`` values (``must have n values, got m``)."""
+
+    def check(v: list[Any]) -> list[Any]:
+        if len(v) != n:
+            raise ValueError(f"must have {n} values, got {len(v)}")
+        return v
+
+    return AfterValidator(check)
+
+
+#: Field types shared by every input file.
+PosFloat = Annotated[float, Field(gt=0)]
+NonNegFloat = Annotated[float, Field(ge=0)]
+Vec3 = Annotated[list[float], fixed_len(3)]
+Vec3Pos = Annotated[list[PosFloat], fixed_len(3)]
+Vec6Pos = Annotated[list[PosFloat], fixed_len(6)]
+Vec12 = Annotated[list[float], fixed_len(12)]
+Vec12NonNeg = Annotated[list[NonNegFloat], fixed_len(12)]
 
 
 class Strict(BaseModel):

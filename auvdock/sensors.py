@@ -9,17 +9,14 @@ gives the same readings.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Annotated
 
 import numpy as np
 from pydantic import Field
 
-from .schema import Strict
+from .schema import NonNegFloat, Strict
 from .vehicle.state import ANG, ATT, ETA, LIN
 
 __all__ = ["SensorSettings", "SensorModel"]
-
-NonNegFloat = Annotated[float, Field(ge=0)]
 
 
 class SensorSettings(Strict):

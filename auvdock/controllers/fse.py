@@ -54,6 +54,7 @@ from ..codegen import compiled_function, compiled_nlpsol
 from ..dock import HeaveDock
 from ..estimator import EstimatorSettings, FlowEstimator, gramian_step, information_lower_bound
 from ..interrupts import SigintDeferred
+from ..schema import Vec6Pos
 from ..sensors import SensorSettings
 from ..vehicle import Vehicle
 from ..vehicle.state import ANG, ATT, ETA
@@ -64,14 +65,12 @@ from .settings import MPCSettings
 
 __all__ = ["FSEMPC", "PerceptionLaw", "SequentialSettings", "OptimizedSettings"]
 
-PosFloat = Annotated[float, Field(gt=0)]
-
 
 class SequentialSettings(MPCSettings):
     """Sequential FSE-MPC: the perception law (9), then the MPC with the estimated flow."""
 
     type: Literal["sequential"] = "sequential"
-    perception_wrench_max: Annotated[list[PosFloat], Field(min_length=6, max_length=6)] = Field(
+    perception_wrench_max: Vec6Pos = Field(
         default=[0.1, 0.1, 0.1, 0.1, 0.1, 0.1],
         description="bound of the active-perception wrench (N, N m), 6 values",
     )

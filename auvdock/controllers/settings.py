@@ -10,30 +10,14 @@ from __future__ import annotations
 
 from typing import Annotated, Any
 
-from pydantic import AfterValidator, Field, field_validator
+from pydantic import Field, field_validator
 
-from ..schema import Strict
+from ..schema import NonNegFloat, PosFloat, Strict, Vec3Pos, Vec12NonNeg
 
 __all__ = ["WeightsSpec", "BoundsSpec", "SolverSpec", "MPCSettings", "DEFAULT_Q"]
 
 #: Diagonal stage and terminal weights of the 12-state error (paper; parameters.md section 4).
 DEFAULT_Q = [1.0, 1.0, 1.0, 100.0, 100.0, 100.0, 1.0, 1.0, 1.0, 100.0, 100.0, 100.0]
-
-PosFloat = Annotated[float, Field(gt=0)]
-NonNegFloat = Annotated[float, Field(ge=0)]
-
-
-def _fixed_len(n: int) -> AfterValidator:
-    def check(v: list[Any]) -> list[Any]:
-        if len(v) != n:
-            raise ValueError(f"must have {n} values, got {len(v)}")
-        return v
-
-    return AfterValidator(check)
-
-
-Vec12NonNeg = Annotated[list[NonNegFloat], _fixed_len(12)]
-Vec3Pos = Annotated[list[PosFloat], _fixed_len(3)]
 
 
 class WeightsSpec(Strict):
