@@ -102,10 +102,10 @@ import numpy as np
 
 from auvdock.autopilot import Autopilot
 from auvdock.bench import PAPER_MISSIONS, default_missions_dir, machine_line
-from auvdock.controllers import ControlOutput, Measurement, resolve_solver
+from auvdock.controllers import ControlOutput, Measurement, Plan, resolve_solver
 from auvdock.controllers.mpc import DockingMPC, MPCResult
+from auvdock.controllers.status import STATUS_FAILED, STATUS_NAMES, STATUS_NOT_CONVERGED, STATUS_OK
 from auvdock.mission import Mission, load_mission
-from auvdock.results import STATUS_FAILED, STATUS_NAMES, STATUS_NOT_CONVERGED, STATUS_OK
 from auvdock.simulation import RunSummary, simulate
 from auvdock.vehicle.model import rk4
 
@@ -297,7 +297,7 @@ class DoMPCController:
         obj = (stats.get("iterations") or {}).get("obj") or [math.nan]
         cost = float(obj[-1]) if ok else math.nan  # includes the constant ||e_0||_Q^2 (module docstring)
         res = MPCResult(thrust, status, solve_time, iters, plan_x, plan_u, cost, ret)
-        return ControlOutput(thrust, status, solve_time, res)
+        return ControlOutput(thrust, status, solve_time, Plan(res.plan_state, res.plan_thrust))
 
 
 class RecordingAutopilot(Autopilot):
@@ -451,14 +451,15 @@ def main(argv: list[str] | None = None) -> int:
 
     # auvdock's Oracle MPC, as `auvdock sim` runs it
     log("building auvdock's Oracle MPC (first build compiles the solver, ~1 min) ...")
-    ap_auv = RecordingAutopilot(mission, mission.build_vehicle(), mission.build_dock(), "oracle")
+    oracle = mission.with_controller("oracle")
+    ap_auv = RecordingAutopilot(oracle.controller, mission.build_vehicle(), mission.build_dock())
     build = str(getattr(ap_auv.controller.mpc, "build", "?"))
     log(f"running auvdock ({resolve_solver(c.solver.name, 'oracle')}, {build}) for up to {timeout} s ...")
     s_auv = simulate(mission, autopilot=ap_auv, timeout_s=timeout)
 
     # the same problem in do-mpc, in place of the controller of an Oracle autopilot
     log("building the do-mpc MPC ...")
-    ap_dm = RecordingAutopilot(mission, mission.build_vehicle(), mission.build_dock(), "oracle")
+    ap_dm = RecordingAutopilot(oracle.controller, mission.build_vehicle(), mission.build_dock())
     dm = DoMPCController(
         ap_dm.controller.mpc,
         max_iter=c.solver.max_iter,
