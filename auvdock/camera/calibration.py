@@ -187,7 +187,7 @@ def _video_frames(cap: cv2.VideoCapture, every: int) -> Iterator[np.ndarray]:
             if not ok:
                 break
             if k % every == 0:
-                yield frame if frame.ndim == 2 else cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
+                yield gray_image(frame)
             k += 1
     finally:
         cap.release()

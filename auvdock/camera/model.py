@@ -48,10 +48,15 @@ R_BC_DEFAULT.flags.writeable = False
 
 
 def gray_image(image: Any) -> np.ndarray:
-    """A camera image as grayscale uint8 (h, w): BGR (h, w, 3) is converted, else ValueError."""
+    """A camera image as grayscale uint8 (h, w): (h, w, 1), BGR (h, w, 3) and BGRA (h, w, 4) are
+    converted; anything else is a ValueError."""
     image = np.asarray(image)
-    if image.ndim == 3 and image.shape[2] == 3:
+    if image.ndim == 3 and image.shape[2] == 1:
+        image = image[:, :, 0]
+    elif image.ndim == 3 and image.shape[2] == 3:
         image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+    elif image.ndim == 3 and image.shape[2] == 4:
+        image = cv2.cvtColor(image, cv2.COLOR_BGRA2GRAY)
     if image.ndim != 2:
         raise ValueError(
             f"image: expected a grayscale (h, w) or BGR (h, w, 3) array, got shape {image.shape}"
