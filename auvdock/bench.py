@@ -9,29 +9,23 @@ outcome and the time to dock.  Figures are measured, never asserted in tests.
 
 from __future__ import annotations
 
-import os
-import platform
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from .campaign import PAPER_MISSIONS, default_missions_dir
+from .campaign.machine import machine_line
+from .catalog import PAPER_MISSIONS, missions_dir
 
-__all__ = ["DEFAULT_CASES", "machine_line", "bench_rows"]
+__all__ = ["PAPER_MISSIONS", "DEFAULT_CASES", "machine_line", "default_missions_dir", "bench_rows"]
 
 DEFAULT_CASES = (1, 2, 6)
 
 
-def machine_line() -> str:
-    """One line naming the machine the figures come from."""
-    import casadi
-
-    cpu = platform.processor() or platform.machine()
-    return (
-        f"{platform.system()} {platform.machine()} ({cpu}), {os.cpu_count()} cores, "
-        f"Python {platform.python_version()}, CasADi {casadi.__version__}"
-    )
+def default_missions_dir() -> Path:
+    """The shipped missions folder (:func:`auvdock.catalog.missions_dir`)."""
+    return missions_dir()
 
 
 def bench_rows(
@@ -84,6 +78,7 @@ def bench_rows(
                     "max_ms": float(ms.max()),
                     "real_time_factor": float(o["real_time_factor"]),
                     "wall_time_s": float(o["wall_time_s"]),
+                    "setup_time_s": float(o.get("setup_time_s", float("nan"))),
                     "solver_failures": int(o["solver_failures"]),
                     "steps": int(len(ms)),
                 }

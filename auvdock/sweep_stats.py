@@ -1,7 +1,11 @@
 """Statistics, figures and the Markdown summary of a sweep (:mod:`auvdock.sweep`), from its HDF5 file alone.
 
-Success is ``docked`` over all runs of a group, a run that errored counting as not docked
-(the error count is shown beside it); intervals are Wilson score intervals
+It reads the results file with :func:`auvdock.campaign.read_results` (the one layout of
+compare and sweep results) and imports nothing from :mod:`auvdock.sweep`, which uses it.
+
+Success is ``docked`` over all runs of a group, a run that failed (status ``failed``: it
+raised, or its worker died twice) counting as not docked (the failure count is shown
+beside it); intervals are Wilson score intervals
 (:func:`wilson_interval`, 95 % by default), which stay inside [0, 1] and behave at 0 of n
 and n of n, unlike the normal approximation.
 
@@ -16,7 +20,7 @@ and n of n, unlike the normal approximation.
   controller, cells annotated ``docked/runs``;
 * ``distributions.png`` -- time to dock and contact speed of the docked runs, a box per
   controller;
-* ``summary.md`` -- the tables behind the figures, and the runs that errored.
+* ``summary.md`` -- the tables behind the figures, and the runs that failed.
 
 A numeric field with more than :data:`MAX_LEVELS` distinct values (random draws) is put
 into :data:`N_BINS` equal-width bins; others are shown value by value.  Figures use a fixed
@@ -38,8 +42,8 @@ import yaml
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from .campaign.store import read_results
 from .campaign_plots import CONTROLLER_ORDER, controller_color, controller_label
-from .sweep import read_sweep
 
 __all__ = [
     "Z95",
@@ -89,7 +93,8 @@ def wilson_interval(successes: int, n: int, z: float = Z95) -> tuple[float, floa
 
 
 def success_rate(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
-    """``{"n", "docked", "rate", "lo", "hi", "errors"}`` of some runs (rate NaN for none)."""
+    """``{"n", "docked", "rate", "lo", "hi", "errors"}`` of some runs (rate NaN for none; errors:
+    the runs that failed)."""
     n = len(rows)
     k = sum(1 for r in rows if r["docked"])
     lo, hi = wilson_interval(k, n)
@@ -99,8 +104,12 @@ def success_rate(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
         "rate": k / n if n else math.nan,
         "lo": lo,
         "hi": hi,
-        "errors": sum(1 for r in rows if r.get("error")),
+        "errors": sum(1 for r in rows if _failed(r)),
     }
+
+
+def _failed(r: dict[str, Any]) -> bool:
+    return r.get("status", "done") != "done" or bool(r.get("error"))
 
 
 def _controllers(rows: Sequence[dict[str, Any]]) -> list[str]:
@@ -131,7 +140,7 @@ SUCCESS_HEADER = (
     "docked",
     "success",
     "95 % interval",
-    "errors",
+    "failed",
     "median dock time s",
     "median contact m/s",
     "median closest m",
@@ -416,7 +425,7 @@ def report_sweep(h5_path: str | Path, out_dir: str | Path) -> list[Path]:
     ValueError
         If ``h5_path`` is not an auvdock sweep file.
     """
-    rows, attrs = read_sweep(h5_path)
+    rows, attrs = read_results(h5_path, "sweep")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     columns: dict[str, str] = attrs["columns"]
@@ -459,12 +468,12 @@ def report_sweep(h5_path: str | Path, out_dir: str | Path) -> list[Path]:
         base = (yaml.safe_load(attrs.get("base_mission_yaml", "") or "") or {}).get("name", "")
     except (yaml.YAMLError, AttributeError):
         pass
-    errors = [r for r in rows if r.get("error")]
+    errors = [r for r in rows if _failed(r)]
     facts = [
         f"base mission: `{base}`" if base else "",
         f"{len(rows)} of {total} runs in the file"
         + ("" if len(rows) >= total else " (incomplete: --resume)"),
-        f"{len(errors)} errored",
+        f"{len(errors)} failed",
         "controllers: " + ", ".join(_controllers(rows)) if rows else "",
         "varied: " + ", ".join(f"`{v}`" for v in varied) if varied else "varied: nothing (one point)",
     ]
@@ -472,14 +481,16 @@ def report_sweep(h5_path: str | Path, out_dir: str | Path) -> list[Path]:
         facts.append("model-error factors: " + ", ".join(f"`{c}`" for c in me_cols))
     md.append("; ".join(f for f in facts if f) + ".\n")
     cmd = attrs.get("command_line", "")
-    versions = f"auvdock {attrs.get('auvdock_version', '')}, dask {attrs.get('dask_version', '')}"
+    versions = f"auvdock {attrs.get('auvdock_version', '')}"
+    if attrs.get("executor"):
+        versions += f", {attrs['executor']}"
     wall = attrs.get("wall_time_s")
     made = f"Made with `{cmd}` ({versions}" if cmd else f"Made with {versions}"
     if wall is not None:
         made += f"; wall time {float(wall):.1f} s"
     md.append(made + ").\n")
     md.append(
-        "Success = docked / runs (a run that errored counts as not docked); intervals are Wilson 95 % "
+        "Success = docked / runs (a run that failed counts as not docked); intervals are Wilson 95 % "
         "score intervals.\n"
     )
     md.append("## Success per controller\n")
@@ -494,10 +505,10 @@ def report_sweep(h5_path: str | Path, out_dir: str | Path) -> list[Path]:
             body.append([lab] + [_cell(success_rate(table.get((c, i), []))) for c in ctrls])
         md.append(_md_table([f, *ctrls], body))
     if errors:
-        md.append(f"## Runs that errored ({len(errors)})\n")
+        md.append(f"## Runs that failed ({len(errors)})\n")
         md.append(_md_table(["run", "error"], [[r["run_id"], r["error"]] for r in errors[:50]]))
         if len(errors) > 50:
-            md.append(f"... and {len(errors) - 50} more (column `error` of `/runs`).\n")
+            md.append(f"... and {len(errors) - 50} more (column `error` of `/campaign_table`).\n")
     if figures:
         md.append("## Figures\n")
         md.append("\n".join(f"- [{what}]({p.name})" for what, p in figures) + "\n")

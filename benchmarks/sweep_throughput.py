@@ -1,29 +1,22 @@
-"""Throughput of ``auvdock sweep`` on Dask: 1 vs 2 local workers, and Dask vs a plain process pool.
+"""Throughput of ``auvdock sweep`` on the campaign engine: local workers, Dask, and a bare process pool.
 
 One small sweep (still water, Naive + Oracle MPC, 2 grid points x 4 seeds = 16 runs of 3 s
 simulated time by default) is run
 
-1. on a warm ``LocalCluster`` with 1 worker and with 2 workers, through
-   :func:`auvdock.sweep.run_sweep` (``scheduler=`` the cluster's address: the real sweep path,
-   one HDF5 row written and flushed per run);
-2. on the same warm 2-worker cluster with a bare ``client.submit`` / ``as_completed`` loop
-   (no results file);
-3. on a warm ``concurrent.futures.ProcessPoolExecutor`` with 2 spawned processes running the
-   same :func:`auvdock.sweep.run_one` on the same runs;
-4. cold: ``run_sweep(workers=2)`` starting (and closing) its own cluster, as the command does.
+1. through :func:`auvdock.sweep.run_sweep` with 1 and with 2 local worker processes (the
+   command's default path: the processes are started by each call, so their start-up --
+   interpreter, imports, the first controller build -- is included, as a user waits for it);
+2. through ``run_sweep(scheduler=...)`` on a warm 2-worker Dask ``LocalCluster`` (workers
+   already started and warmed up by one short run);
+3. on a warm ``concurrent.futures.ProcessPoolExecutor`` with 2 spawned processes running
+   :func:`auvdock.campaign.execute_run` on the same runs, results not stored (the floor).
 
-Warm-up and cluster start: every timed measurement except (4) starts after the cluster or
-pool is up and every worker process has imported auvdock and flown one 0.05 s run (loaded
-CasADi and, with ``AUVDOCK_COMPILE=auto``, the cached compiled solvers); that start-up time
-is printed on its own.  (4) includes all of it, which is what a user waits for.  The pool's
-processes get the same single-threaded BLAS environment Dask's nanny gives its workers
-(``distributed.nanny.pre-spawn-environ``).  Measurements 1-3 run in interleaved rounds
-(``--repeat``) and the best round of each is kept, so that a noisy machine slows all alike.
-
-Printed: runs per minute, the scaling efficiency ``throughput(2) / (2 x throughput(1))``
-and the Dask overhead against the process pool, ``(wall_dask - wall_pool) / wall_pool`` in %
-and in ms per run.  On a 2-core machine the driver process shares the cores with the two
-workers.  Asserts nothing.
+Each measurement writes its own results file (except 3).  Measurements run in interleaved
+rounds (``--repeat``) and the best round of each is kept, so that a noisy machine slows
+all alike.  Printed: runs per minute, the scaling efficiency ``throughput(2) /
+(2 x throughput(1))`` of the local workers, and the overhead of the engine (start-up,
+HDF5 rows, progress) over the bare pool, in % and in ms per run.  On a 2-core machine the
+driver shares the cores with the two workers.  Asserts nothing.
 
     python benchmarks/sweep_throughput.py [--seeds 4] [--timeout 3] [--repeat 3]
 """
@@ -34,7 +27,6 @@ import argparse
 import logging
 import multiprocessing as mp
 import os
-import platform
 import tempfile
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -65,42 +57,20 @@ def _sweep_file(d: Path, seeds: int, timeout: float) -> Path:
     return p
 
 
-def _cluster(n: int):
-    from distributed import Client, LocalCluster
-
-    t0 = time.perf_counter()
-    cluster = LocalCluster(
-        n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0", silence_logs=logging.ERROR
-    )
-    client = Client(cluster)
-    t_start = time.perf_counter() - t0
-    client.run(_warm)
-    return cluster, client, t_start, time.perf_counter() - t0 - t_start
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=4, help="seeds per point (runs = 4 x seeds)")
     ap.add_argument("--timeout", type=float, default=3.0, help="simulated seconds per run")
-    ap.add_argument(
-        "--repeat", type=int, default=3, help="rounds of the timed measurements; the best is kept"
-    )
+    ap.add_argument("--repeat", type=int, default=3, help="rounds of the measurements; the best is kept")
     args = ap.parse_args()
 
-    import dask
-    import distributed
+    from distributed import Client, LocalCluster
 
+    from auvdock.campaign import execute_run, machine_line
     from auvdock.codegen import compile_mode
-    from auvdock.sweep import expand_sweep, load_sweep, read_sweep, run_one, run_sweep
+    from auvdock.sweep import expand_sweep, load_sweep, run_sweep
 
-    print(
-        f"machine: {platform.platform()}, {os.cpu_count()} cores, Python {platform.python_version()}; "
-        f"dask {dask.__version__}, distributed {distributed.__version__}; AUVDOCK_COMPILE={compile_mode()}"
-    )
-    # the pool's processes get the single-threaded BLAS that Dask's nanny gives its workers
-    # (distributed.nanny.pre-spawn-environ), so that both run the same code the same way
-    for k, v in dask.config.get("distributed.nanny.pre-spawn-environ").items():
-        os.environ.setdefault(k, str(v))
+    print(f"machine: {machine_line()}; AUVDOCK_COMPILE={compile_mode()}")
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
         sweep = _sweep_file(d, args.seeds, args.timeout)
@@ -110,10 +80,17 @@ def main() -> None:
             f"sweep: {n} runs (naive, oracle; 2 points x {args.seeds} seeds), "
             f"{args.timeout:g} s simulated each; {args.repeat} rounds, best kept"
         )
-        c1, cl1, s1, w1 = _cluster(1)
-        print(f"LocalCluster(1): start {s1:.2f} s, warm-up (imports + one short run) {w1:.2f} s")
-        c2, cl2, s2, w2 = _cluster(2)
-        print(f"LocalCluster(2): start {s2:.2f} s, warm-up (imports + one short run) {w2:.2f} s")
+        t0 = time.perf_counter()
+        cluster = LocalCluster(
+            n_workers=2,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=":0",
+            silence_logs=logging.ERROR,
+        )
+        client = Client(cluster)
+        client.run(_warm)
+        print(f"Dask LocalCluster(2): start + warm-up {time.perf_counter() - t0:.2f} s")
         t0 = time.perf_counter()
         pool = ProcessPoolExecutor(max_workers=2, mp_context=mp.get_context("spawn"))
         pids = list(pool.map(_warm, range(2)))
@@ -122,74 +99,65 @@ def main() -> None:
             f"({len(set(pids))} processes)"
         )
 
-        def via_run_sweep(cluster, tag: str) -> tuple[float, float]:
-            t1 = time.perf_counter()
-            res = run_sweep(sweep, d / tag, scheduler=cluster.scheduler_address, command_line="")
-            wall = time.perf_counter() - t1
-            assert len(res.ran) == n, res.errors
-            return wall, sum(r["wall_time_s"] for r in read_sweep(res.path)[0])
+        counter = [0]
 
-        def bare() -> tuple[float, float]:
+        def engine(**kw) -> tuple[float, float]:
+            counter[0] += 1
             t1 = time.perf_counter()
-            futs = [cl2.submit(run_one, s, pure=False) for s in specs]
-            out = [f.result() for f in distributed.as_completed(futs)]
-            return time.perf_counter() - t1, sum(o["row"]["wall_time_s"] for o in out)
+            res = run_sweep(sweep, d / f"r{counter[0]}", command_line="", **kw)
+            wall = time.perf_counter() - t1
+            assert len(res.ran) == n and not res.errors, res.errors
+            return wall, sum(r["wall_time_s"] + r["setup_time_s"] for r in res.records)
 
         def pooled() -> tuple[float, float]:
             t1 = time.perf_counter()
-            futs = [pool.submit(run_one, s) for s in specs]
-            out = [f.result() for f in as_completed(futs)]
-            return time.perf_counter() - t1, sum(o["row"]["wall_time_s"] for o in out)
+            out = [f.result() for f in as_completed([pool.submit(execute_run, s) for s in specs])]
+            return time.perf_counter() - t1, sum(
+                o["row"]["wall_time_s"] + o["row"]["setup_time_s"] for o in out
+            )
 
         measurements = {
-            "dask1": lambda: via_run_sweep(c1, "dask1"),
-            "dask2": lambda: via_run_sweep(c2, "dask2"),
-            "dask2_bare": bare,
+            "local1": lambda: engine(workers=1),
+            "local2": lambda: engine(workers=2),
+            "dask2": lambda: engine(scheduler=cluster.scheduler_address),
             "pool2": pooled,
         }
         best: dict[str, tuple[float, float]] = {}
         try:
-            for _ in range(max(1, args.repeat)):  # interleaved rounds: a noisy machine hits all alike
+            for _ in range(max(1, args.repeat)):
                 for key, fn in measurements.items():
                     r = fn()
                     if key not in best or r[0] < best[key][0]:
                         best[key] = r
         finally:
             pool.shutdown()
-            for client, cluster in ((cl2, c2), (cl1, c1)):  # last in, first out: log levels restored
-                client.close()
-                cluster.close()
-
-        t0 = time.perf_counter()
-        res = run_sweep(sweep, d / "cold", workers=2, command_line="")
-        best["cold2"] = (time.perf_counter() - t0, sum(r["wall_time_s"] for r in read_sweep(res.path)[0]))
+            client.close()
+            cluster.close()
 
     def rpm(w: float) -> float:
         return 60.0 * n / w
 
     print()
-    print(f"{'measurement':<56} {'wall s':>7} {'runs/min':>9} {'s per run':>10}")
+    print(f"{'measurement':<60} {'wall s':>7} {'runs/min':>9} {'s per run':>10}")
     rows = [
-        ("Dask, 1 worker (run_sweep, warm)", "dask1"),
-        ("Dask, 2 workers (run_sweep, warm)", "dask2"),
-        ("Dask, 2 workers (bare submit/as_completed, warm)", "dask2_bare"),
-        ("ProcessPoolExecutor, 2 processes (warm)", "pool2"),
-        ("Dask, 2 workers (run_sweep, cold: cluster start incl.)", "cold2"),
+        ("run_sweep, 1 local worker (start-up included)", "local1"),
+        ("run_sweep, 2 local workers (start-up included)", "local2"),
+        ("run_sweep on a warm 2-worker Dask cluster", "dask2"),
+        ("bare ProcessPoolExecutor, 2 warm processes, nothing stored", "pool2"),
     ]
     for label, key in rows:
         wall, compute = best[key]
-        print(f"{label:<56} {wall:7.2f} {rpm(wall):9.1f} {compute / n:10.3f}")
-    print("(s per run: the mean wall time of one run inside its worker)")
-    eff = rpm(best["dask2"][0]) / (2 * rpm(best["dask1"][0]))
+        print(f"{label:<60} {wall:7.2f} {rpm(wall):9.1f} {compute / n:10.3f}")
+    print("(s per run: the mean wall + set-up time of one run inside its worker)")
+    eff = rpm(best["local2"][0]) / (2 * rpm(best["local1"][0]))
     print()
-    print(f"scaling efficiency, 1 -> 2 workers: throughput(2) / (2 x throughput(1)) = {eff:.2f}")
-    for key, label in (("dask2", "run_sweep (HDF5 row per run)"), ("dask2_bare", "bare submit")):
+    print(f"scaling efficiency, 1 -> 2 local workers: throughput(2) / (2 x throughput(1)) = {eff:.2f}")
+    for key, label in (("local2", "2 local workers"), ("dask2", "Dask, 2 warm workers")):
         over = best[key][0] - best["pool2"][0]
         print(
-            f"Dask overhead vs the process pool, {label}: {100 * over / best['pool2'][0]:+.1f} % "
+            f"engine overhead vs the bare pool, {label}: {100 * over / best['pool2'][0]:+.1f} % "
             f"({1000 * over / n:+.0f} ms per run)"
         )
-    print(f"cold start cost (cold run_sweep - warm run_sweep): {best['cold2'][0] - best['dask2'][0]:.2f} s")
 
 
 if __name__ == "__main__":

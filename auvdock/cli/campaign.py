@@ -1,20 +1,30 @@
-"""``auvdock compare``, ``auvdock report`` and ``auvdock sweep``: many runs, tables and figures."""
+"""``auvdock compare``, ``auvdock report`` and ``auvdock sweep``: many runs on the one campaign engine.
+
+Both run commands: an existing results file in ``--out`` is never overwritten silently
+(exit 2 and one line, unless ``--resume`` or ``--force``); Ctrl-C stops the workers at
+once, keeps every finished run and exits 130; ``--resume`` continues.  Exit 1 when some
+run failed (its error is in the table).
+"""
 
 from __future__ import annotations
 
+import os
+import shlex
 from pathlib import Path
-from typing import Any
 
 import typer
-from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from ..mission import MissionError
-from .app import app, console, controller_list, err_console, fail_input
+from .app import app, console, controller_list, exit_interrupted, fail_input
+
+
+def _interrupted(path: Path) -> None:
+    exit_interrupted(f"interrupted: the finished runs are in {path}; continue with --resume")
 
 
 def _campaign_outputs(path: Path, out_dir: Path, *, pdf: bool, plots: bool, records=None, attrs=None) -> None:
-    """Tables, findings and figures of a campaign file, printed and written to ``out_dir``."""
+    """Tables, findings and figures of a compare campaign file, printed and written to ``out_dir``."""
     from ..campaign import SUMMARY_HEADER, check_findings, read_campaign, summary_rows, write_tables
 
     if records is None or attrs is None:
@@ -26,7 +36,10 @@ def _campaign_outputs(path: Path, out_dir: Path, *, pdf: bool, plots: bool, reco
         style = "red" if row[2] == "failed" else ("green" if row[2] == "yes" else None)
         t.add_row(*row, style=style)
     console.print(t)
-    ft = Table(title="the paper's findings (parameters.md 5b)", show_lines=True)
+    ft = Table(
+        title="the paper's findings (parameters.md 5b), explained with this campaign's figures",
+        show_lines=True,
+    )
     for h in ("finding", "measured here", "verdict", "why it differs"):
         ft.add_column(h, overflow="fold")
     for f in check_findings(records):
@@ -34,7 +47,7 @@ def _campaign_outputs(path: Path, out_dir: Path, *, pdf: bool, plots: bool, reco
         ft.add_row(f.finding, f.measured, f"[{colour}]{f.verdict}[/{colour}]", f.explanation)
     console.print(ft)
     written = write_tables(records, out_dir, attrs)
-    if plots:
+    if plots and records:
         from ..campaign import read_campaign_runs
         from ..campaign_plots import plot_campaign
 
@@ -43,172 +56,251 @@ def _campaign_outputs(path: Path, out_dir: Path, *, pdf: bool, plots: bool, reco
     console.print("written: " + ", ".join(str(p) for p in written))
 
 
+def _sweep_outputs(path: Path, out_dir: Path, title: str) -> list[Path]:
+    """The success table printed; summary.md and the figures written (from the file alone)."""
+    from ..sweep import read_sweep
+    from ..sweep_stats import report_sweep, success_table
+
+    rows, _ = read_sweep(path)
+    header, table_rows = success_table(rows)
+    t = Table(title=title)
+    for h in header:
+        t.add_column(h, justify="left" if h == "controller" else "right")
+    for r in table_rows:
+        t.add_row(*r)
+    console.print(t)
+    written = report_sweep(path, out_dir)
+    md = [p for p in written if p.suffix == ".md"]
+    if md:
+        console.print(f"summary: {md[0]}", highlight=False)
+    console.print(
+        f"figures: {sum(p.suffix == '.png' for p in written)} PNG files in {out_dir}", highlight=False
+    )
+    return written
+
+
+def _worker_logs(out_dir: Path) -> None:
+    logs = out_dir / "logs"
+    if logs.is_dir() and any(p.stat().st_size > 0 for p in logs.glob("worker-*.log")):
+        console.print(f"worker output (solver warnings): {logs}", highlight=False)
+
+
+def _ran_line(res) -> None:
+    ran = set(res.ran)
+    rows = [r for r in res.records if r["run_id"] in ran]
+    loop = sum(r["wall_time_s"] for r in rows if r["wall_time_s"] == r["wall_time_s"])
+    setup = sum(r["setup_time_s"] for r in rows if r["setup_time_s"] == r["setup_time_s"])
+    if res.skipped:
+        console.print(f"resumed: {len(res.skipped)} runs already complete, {len(res.ran)} run now")
+    console.print(
+        f"campaign wall time {res.wall_time_s:.1f} s on {res.executor}; in the runs: {loop:.1f} s of closed "
+        f"loop (mean {loop / max(1, len(rows)):.1f} s per run) + {setup:.1f} s of controller set-up",
+        highlight=False,
+    )
+
+
 @app.command()
 def compare(
     missions: list[Path] | None = typer.Argument(
-        None, help="Mission files (default: the paper's six cases from missions/)."
+        None, help="Mission files or shipped mission names (default: the paper's six cases)."
     ),
     controllers: list[str] | None = typer.Option(
-        None,
-        "--controllers",
-        "-c",
-        help="Controllers, comma-separated or repeated (default: all five).",
+        None, "--controllers", "-c", help="Controllers, comma-separated or repeated (default: all five)."
     ),
     jobs: int | None = typer.Option(
         None, "--jobs", "-j", min=1, help="Worker processes (default: all cores)."
+    ),
+    scheduler: str | None = typer.Option(
+        None, "--scheduler", help="Run on a Dask cluster instead, e.g. tcp://HOST:8786."
     ),
     out: Path = typer.Option(Path("runs/compare"), "--out", "-o", help="Output directory."),
     seed: int | None = typer.Option(None, "--seed", help="Seed for every run (default: each mission's)."),
     timeout: float | None = typer.Option(
         None, "--timeout", min=0.0, help="Docking timeout for every run, s (default: each mission's)."
     ),
-    resume: bool = typer.Option(False, "--resume", help="Skip runs already complete in the campaign file."),
+    resume: bool = typer.Option(
+        False, "--resume", help="Continue the campaign in --out: skip the runs done."
+    ),
+    force: bool = typer.Option(False, "--force", help="Replace the campaign in --out: start again."),
     pdf: bool = typer.Option(False, "--pdf", help="Also write the figures as PDF."),
     no_plots: bool = typer.Option(False, "--no-plots", help="Skip the figures."),
 ) -> None:
     """Run the paper's six-case study (cases x controllers) in parallel, with tables and figures."""
-    import os
-    import shlex
-
-    from ..campaign import PAPER_MISSIONS, campaign_specs, default_missions_dir, run_campaign
+    from ..campaign import (
+        ExecutorError,
+        ResultsFileError,
+        campaign_specs,
+        compare_plan,
+        default_missions,
+        run_plan,
+    )
+    from ..campaign.display import CampaignProgress
+    from ..campaign.store import check_output
+    from ..catalog import resolve
 
     ctrls = controller_list(controllers)
-    given_missions = list(missions or [])
-    if not missions:
-        d = default_missions_dir()
-        missions = [d / f"{m}.yaml" for m in PAPER_MISSIONS]
-    for m in missions:
+    given = list(missions or [])
+    paths = [resolve(m) for m in given] or default_missions()
+    for m in paths:
         if not m.is_file():
             fail_input(f"{m}: file not found")
     try:
-        specs = campaign_specs(missions, ctrls, out, seed=seed, timeout_s=timeout)
-    except MissionError as e:
+        specs = campaign_specs(paths, ctrls, seed=seed, timeout_s=timeout)
+    except (MissionError, ValueError) as e:
         fail_input(str(e))
-    except ValueError as e:
+        raise AssertionError("unreachable") from None
+    path = out / "campaign.h5"
+    try:
+        check_output(path, "compare", resume=resume, force=force)
+    except ResultsFileError as e:
         fail_input(str(e))
     n_jobs = jobs or os.cpu_count() or 1
-    path = out / "campaign.h5"
-    n_cases = len(specs) // max(1, len(ctrls))
-    console.print(
-        f"[bold]campaign[/bold]: {n_cases} cases x {len(ctrls)} controllers = {len(specs)} runs, "
-        f"{n_jobs} worker processes -> {path}"
-    )
-    # the command as parsed (sys.argv is not the command line when called as a library)
-    words = ["auvdock", "compare", *(str(m) for m in (given_missions or []))]
+    words = ["auvdock", "compare", *(str(m) for m in given)]
     if controllers:
         words += ["--controllers", ",".join(ctrls)]
-    words += ["--jobs", str(n_jobs), "--out", str(out)]
+    words += ["--scheduler", scheduler] if scheduler else ["--jobs", str(n_jobs)]
+    words += ["--out", str(out)]
     for flag, value in (("--seed", seed), ("--timeout", timeout)):
         if value is not None:
             words += [flag, str(value)]
-    words += [w for w, on in (("--resume", resume), ("--pdf", pdf), ("--no-plots", no_plots)) if on]
-    cmd = " ".join(shlex.quote(w) for w in words)
-
-    with Progress(
-        SpinnerColumn(),
-        TextColumn("{task.description:<28}"),
-        BarColumn(),
-        TextColumn("{task.fields[info]}"),
-        TimeElapsedColumn(),
-        console=console,
-    ) as bar:
-        overall = bar.add_task("all runs", total=len(specs), info="")
-        tasks: dict[tuple[str, str], Any] = {}
-        done_count = [0]
-
-        def on_event(kind: str, key: tuple[str, str], info: dict[str, Any]) -> None:
-            label = f"{key[0]} / {key[1]}"
-            if kind == "start" and key not in tasks:
-                tasks[key] = bar.add_task(label, total=1.0, info="")
-            elif kind == "progress":
-                if key not in tasks:
-                    tasks[key] = bar.add_task(label, total=1.0, info="")
-                bar.update(
-                    tasks[key],
-                    total=info["timeout_s"],
-                    completed=info["t"],
-                    info=f"t = {info['t']:5.1f} s  d = {info['distance_m']:.3f} m",
-                )
-            elif kind == "done":
-                if key in tasks:
-                    bar.remove_task(tasks.pop(key))
-                done_count[0] += 1
-                bar.update(overall, completed=done_count[0], info=f"{done_count[0]}/{len(specs)}")
-                if info["status"] != "done":
-                    verdict = f"[red]failed[/red]: {info['error']}"
-                elif info["docked"]:
-                    verdict = f"[green]docked[/green] {info['time_to_dock_s']:.2f} s"
-                else:
-                    verdict = f"[yellow]timeout[/yellow] {info['timeout_s']:.0f} s"
-                bar.console.print(f"  {label:<28} {verdict}  (wall {info['wall_time_s']:.1f} s)")
-
-        try:
-            res = run_campaign(specs, path, jobs=n_jobs, resume=resume, command_line=cmd, on_event=on_event)
-        except ValueError as e:
-            fail_input(str(e))
-        except KeyboardInterrupt:
-            err_console.print(f"interrupted: the finished runs are in {path}; continue with --resume")
-            raise typer.Exit(code=130) from None
-        bar.update(overall, completed=len(specs), info=f"{len(specs)}/{len(specs)}")
-
-    if res.skipped:
-        console.print(f"resumed: {len(res.skipped)} runs already complete, {len(res.ran)} run now")
-    wall_runs = sum(r["wall_time_s"] for r in res.records if (r["case"], r["controller"]) in set(res.ran))
+    flags = (("--resume", resume), ("--force", force), ("--pdf", pdf), ("--no-plots", no_plots))
+    words += [w for w, on in flags if on]
+    cmd = shlex.join(words)
+    n_cases = len(specs) // max(1, len(ctrls))
+    where = f"Dask scheduler {scheduler}" if scheduler else f"{n_jobs} worker processes"
     console.print(
-        f"campaign wall time {res.wall_time_s:.1f} s; compute in runs {wall_runs:.1f} s "
-        f"({len(res.ran)} runs, mean {wall_runs / max(1, len(res.ran)):.1f} s per run)"
+        f"[bold]campaign[/bold]: {n_cases} cases x {len(ctrls)} controllers = {len(specs)} runs, "
+        f"{where} -> {path}"
     )
+    try:
+        with CampaignProgress(
+            console, len(specs), lines=True, label=lambda s: s.run_id.replace("/", " / ")
+        ) as bar:
+            res = run_plan(
+                compare_plan(specs),
+                path,
+                workers=n_jobs,
+                scheduler=scheduler,
+                resume=resume,
+                force=force,
+                command_line=cmd,
+                on_event=bar,
+            )
+    except (ResultsFileError, ExecutorError) as e:
+        fail_input(str(e))
+    except KeyboardInterrupt:
+        _interrupted(path)
+    _ran_line(res)
     _campaign_outputs(path, out, pdf=pdf, plots=not no_plots)
-    if any(r["status"] != "done" for r in res.records):
+    _worker_logs(out)
+    if res.errors:
         raise typer.Exit(code=1)
 
 
 @app.command()
 def report(
-    results: Path = typer.Argument(..., help="Campaign file written by auvdock compare."),
+    results: Path = typer.Argument(..., help="Results file written by auvdock compare or auvdock sweep."),
     out: Path | None = typer.Option(
         None, "--out", "-o", help="Output directory (default: next to the file)."
     ),
-    pdf: bool = typer.Option(False, "--pdf", help="Also write the figures as PDF."),
-    no_plots: bool = typer.Option(False, "--no-plots", help="Skip the figures."),
+    pdf: bool = typer.Option(False, "--pdf", help="Also write the figures as PDF (compare)."),
+    no_plots: bool = typer.Option(False, "--no-plots", help="Skip the figures (compare)."),
 ) -> None:
-    """Rebuild a campaign's tables, findings and figures from its HDF5 file alone."""
-    from ..campaign import read_campaign
+    """Rebuild a campaign's or sweep's tables, findings and figures from its HDF5 file alone."""
+    from ..campaign import read_results
 
     if not results.is_file():
         fail_input(f"{results}: file not found")
     try:
-        records, attrs = read_campaign(results)
+        records, attrs = read_results(results)
     except ValueError as e:
         fail_input(str(e))
         raise AssertionError("unreachable") from None
-    _campaign_outputs(
-        results, out if out is not None else results.parent, pdf=pdf, plots=not no_plots,
-        records=records, attrs=attrs,
-    )  # fmt: skip
+    out_dir = out if out is not None else results.parent
+    if attrs.get("kind") == "sweep":
+        _sweep_outputs(results, out_dir, f"sweep {attrs.get('sweep_name', '')}: success per controller")
+        return
+    _campaign_outputs(results, out_dir, pdf=pdf, plots=not no_plots, records=records, attrs=attrs)
 
 
 @app.command()
 def sweep(
-    sweep_file: Path = typer.Argument(..., help="Sweep YAML file (e.g. missions/sweeps/current_speed.yaml)."),
+    sweep_file: Path = typer.Argument(
+        ..., help="Sweep YAML file or shipped sweep name (e.g. current_speed, tank_trials)."
+    ),
     out: Path | None = typer.Option(
         None, "--out", "-o", help="Output directory (default: runs/sweeps/<name>)."
     ),
     workers: int | None = typer.Option(
-        None, "--workers", "-j", min=1, help="Local Dask worker processes (default: one per core)."
+        None, "--workers", "-j", min=1, help="Local worker processes (default: one per core)."
     ),
     scheduler: str | None = typer.Option(
-        None, "--scheduler", help="Submit to a running Dask cluster, e.g. tcp://HOST:8786."
+        None, "--scheduler", help="Run on a Dask cluster instead, e.g. tcp://HOST:8786."
     ),
-    resume: bool = typer.Option(False, "--resume", help="Skip runs already in the results file."),
-    trajectories: bool = typer.Option(False, "--trajectories", help="Also store every run's trajectory."),
+    resume: bool = typer.Option(False, "--resume", help="Continue the sweep in --out: skip the runs done."),
+    force: bool = typer.Option(False, "--force", help="Replace the sweep in --out: start again."),
+    trajectories: bool = typer.Option(False, "--trajectories", help="Also keep every run's trajectory."),
 ) -> None:
-    """Monte Carlo robustness campaign on Dask: success rates with Wilson intervals, figures, summary."""
-    from ..sweep import SweepError, sweep_main
+    """Monte Carlo robustness campaign: success rates with Wilson intervals, figures, summary."""
+    from ..campaign import ExecutorError, ResultsFileError, run_plan
+    from ..campaign.display import CampaignProgress
+    from ..campaign.store import check_output
+    from ..sweep import RESULTS_NAME, SweepError, load_sweep, sweep_plan
 
     try:
-        code = sweep_main(sweep_file, out, workers, scheduler, resume, trajectories, console)
+        s = load_sweep(sweep_file)
+        plan = sweep_plan(s, trajectories=trajectories)
     except (SweepError, MissionError) as e:
         fail_input(str(e))
         raise AssertionError("unreachable") from None
-    raise typer.Exit(code=code)
+    out_dir = out if out is not None else Path("runs") / "sweeps" / str(s.name)
+    path = out_dir / RESULTS_NAME
+    try:
+        check_output(path, "sweep", resume=resume, force=force)
+    except ResultsFileError as e:
+        fail_input(str(e))
+    words = ["auvdock", "sweep", str(sweep_file), "--out", str(out_dir)]
+    if workers:
+        words += ["--workers", str(workers)]
+    if scheduler:
+        words += ["--scheduler", scheduler]
+    words += [
+        w for w, on in (("--resume", resume), ("--force", force), ("--trajectories", trajectories)) if on
+    ]
+
+    def n_of(k: int, what: str) -> str:
+        return f"{k} {what}" + ("" if k == 1 else "s")
+
+    parts = [n_of(s.n_points, "point"), n_of(len(s.controllers), "controller"), n_of(s.seeds, "seed")]
+    if s.model_error.n:
+        parts.append(n_of(s.model_error.n, "model-error draw"))
+    console.print(
+        f"[bold]sweep[/bold] {s.name}: {' x '.join(parts)} = {n_of(s.n_runs, 'run')} -> {path}",
+        highlight=False,
+    )
+    try:
+        with CampaignProgress(console, len(plan.specs)) as bar:
+            res = run_plan(
+                plan,
+                path,
+                workers=workers,
+                scheduler=scheduler,
+                resume=resume,
+                force=force,
+                command_line=shlex.join(words),
+                on_event=bar,
+            )
+    except (ResultsFileError, ExecutorError) as e:
+        fail_input(str(e))
+    except KeyboardInterrupt:
+        _interrupted(path)
+    _ran_line(res)
+    _sweep_outputs(res.path, out_dir, f"sweep {s.name}: success per controller (Wilson 95 % intervals)")
+    console.print(f"results: {res.path}", highlight=False)
+    _worker_logs(out_dir)
+    if res.errors:
+        for rid, err in list(res.errors.items())[:5]:
+            console.print(f"  [red]failed[/red] {rid}: {err}", highlight=False)
+        if len(res.errors) > 5:
+            console.print(f"  ... and {len(res.errors) - 5} more (column 'error' of the run table)")
+        raise typer.Exit(code=1)

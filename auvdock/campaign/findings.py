@@ -1,0 +1,261 @@
+"""The paper's findings (parameters.md section 5b), checked against a campaign's own table.
+
+Each :class:`Finding` is one claim of the paper (fixed: that is what is checked), what the
+campaign measured, a verdict, and -- where the verdict is not "holds" -- an explanation
+made only of the campaign's figures: time to dock, closest approach against the docking
+tolerance, path length, flow-estimate RMSE and final error, wall and set-up time.  No
+sentence is written in advance, so none can contradict the table it is printed beside.
+Only runs of the paper's six cases count (``paper_case`` 1-6) and only runs that ran
+(``status == "done"``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+__all__ = ["Finding", "PAPER_COMPUTE_S", "check_findings"]
+
+#: The paper's compute per 75 s case (Python + CasADi on an Intel i7-10870H laptop), s.
+PAPER_COMPUTE_S = {"optimized": 5014.83, "sequential": 203.08}
+_ALL = frozenset(range(1, 7))
+_LABEL = {
+    "naive": "Naive MPC",
+    "kinematic": "Kinematic MPC",
+    "oracle": "Oracle MPC",
+    "sequential": "Sequential FSE-MPC",
+    "optimized": "Optimized FSE-MPC",
+}
+#: "Clearly lower" flow RMSE: at least this much below (a ratio).
+CLEAR_RATIO = 0.8
+
+
+@dataclass
+class Finding:
+    """One of the paper's findings, checked against a campaign."""
+
+    finding: str
+    measured: str
+    verdict: str  # "holds", "differs", "differs (...)" or "not run"
+    explanation: str = ""
+
+
+def _ok(v: Any) -> bool:
+    return v is not None and isinstance(v, int | float) and math.isfinite(v)
+
+
+def _by(records: Iterable[dict[str, Any]], controller: str) -> dict[int, dict[str, Any]]:
+    return {
+        int(r["paper_case"]): r
+        for r in records
+        if r.get("controller") == controller
+        and int(r.get("paper_case", 0) or 0) > 0
+        and r.get("status") == "done"
+    }
+
+
+def _cases(cases: Iterable[int]) -> str:
+    return ", ".join(str(c) for c in sorted(cases)) or "none"
+
+
+def _join(parts: Sequence[str]) -> str:
+    return "; ".join(parts)
+
+
+def _why_not_docked(case: int, r: dict[str, Any]) -> str:
+    """One sentence on a run that did not dock, from its row alone."""
+    end = r.get("end_time_s")
+    reason = r.get("reason") or "timeout"
+    head = f"Case {case}: {reason}" + (f" at {end:.1f} s" if _ok(end) else "")
+    bits = []
+    ca, tol = r.get("closest_approach_m"), r.get("tolerance_m")
+    if _ok(ca):
+        near = f"closest approach {ca:.3f} m"
+        if _ok(tol) and tol > 0:
+            near += f" ({ca / tol:.1f} times the {tol:.3f} m tolerance)"
+        bits.append(near)
+    if _ok(r.get("path_length_m")):
+        bits.append(f"path {r['path_length_m']:.2f} m")
+    if _ok(r.get("flow_rmse_m_s")):
+        flow = f"flow estimate RMSE {r['flow_rmse_m_s']:.4f} m/s"
+        if _ok(r.get("flow_final_error_m_s")):
+            flow += f", {r['flow_final_error_m_s']:.4f} m/s off at the end"
+        bits.append(flow)
+    return head + (", " + ", ".join(bits) if bits else "") + "."
+
+
+def _docking(records, ctrl: str, expected: frozenset[int]) -> Finding:
+    label = _LABEL[ctrl]
+    text = f"{label} docks in " + ("all six cases" if expected == _ALL else "cases 1 and 5 only")
+    runs = _by(records, ctrl)
+    if not _ALL <= set(runs):
+        return Finding(text, f"cases run: {_cases(runs)}", "not run")
+    docked = {c for c, r in runs.items() if r["docked"]}
+    measured = f"docks in {_cases(docked)}; times out in {_cases(_ALL - docked)}"
+    if docked == expected:
+        return Finding(text, measured, "holds")
+    why: list[str] = []
+    extra = sorted(docked - expected)  # docks where the paper's times out
+    if extra:
+        times = ", ".join(f"case {c} at {runs[c]['time_to_dock_s']:.2f} s" for c in extra)
+        why.append(f"Docks where the paper's times out: {times}.")
+        oracle = _by(records, "oracle")
+        if ctrl != "oracle" and all(c in oracle and oracle[c]["docked"] for c in extra):
+            diffs = [abs(runs[c]["time_to_dock_s"] - oracle[c]["time_to_dock_s"]) for c in extra]
+            worst = extra[diffs.index(max(diffs))]
+            sentence = (
+                "Oracle MPC docks in the same cases at "
+                + ", ".join(f"{oracle[c]['time_to_dock_s']:.2f}" for c in extra)
+                + f" s, the largest difference {max(diffs):.2f} s (case {worst})"
+            )
+            if max(diffs) <= 0.5:
+                sentence += f", so {label} flies as Oracle MPC there"
+            why.append(sentence + ".")
+    for c in sorted(expected - docked):
+        why.append(_why_not_docked(c, runs[c]))
+    return Finding(text, measured, "differs", " ".join(why))
+
+
+def _travel(records) -> Finding:
+    text = "Travel time: Optimized > Sequential > Oracle"
+    o, s, q = _by(records, "optimized"), _by(records, "sequential"), _by(records, "oracle")
+    if not (o and s and q):
+        return Finding(text, "needs oracle, sequential and optimized runs", "not run")
+    cases = sorted(set(o) & set(s) & set(q))
+    common = [c for c in cases if o[c]["docked"] and s[c]["docked"] and q[c]["docked"]]
+    left_out = []
+    for c in cases:
+        if c in common:
+            continue
+        ended = [
+            f"{n} ended at {runs[c]['end_time_s']:.1f} s without docking"
+            for n, runs in (("Optimized", o), ("Sequential", s), ("Oracle", q))
+            if not runs[c]["docked"]
+        ]
+        left_out.append(f"case {c} ({', '.join(ended)})")
+    left = ("Left out: " + "; ".join(left_out) + ".") if left_out else ""
+    if not common:
+        return Finding(text, "no case where all three docked", "differs", left)
+
+    def t(runs, c) -> float:
+        return float(runs[c]["time_to_dock_s"])
+
+    good = [c for c in common if t(o, c) > t(s, c) > t(q, c)]
+    parts = [f"case {c}: {t(o, c):.1f} / {t(s, c):.1f} / {t(q, c):.1f} s" for c in common]
+    measured = f"order holds in {len(good)} of {len(common)} cases (opt / seq / oracle): " + _join(parts)
+    if len(good) == len(common):
+        return Finding(text, measured, "holds", left)
+    why = []
+    for a, an, b, bn in ((o, "Optimized", s, "Sequential"), (s, "Sequential", q, "Oracle")):
+        early = [c for c in common if not t(a, c) > t(b, c)]
+        if early:
+            by = ", ".join(f"{t(b, c) - t(a, c):.2f}" for c in early)
+            cases = f"case{'s' if len(early) > 1 else ''} {_cases(early)}"
+            why.append(f"{an} docks no later than {bn} in {cases} (earlier by {by} s).")
+    if left:
+        why.append(left)
+    return Finding(text, measured, "differs", " ".join(why))
+
+
+def _rmse(records) -> Finding:
+    text = "Flow RMSE: Optimized < Sequential, clearly so in cases 2 and 4"
+    o, s = _by(records, "optimized"), _by(records, "sequential")
+    both = sorted(c for c in set(o) & set(s) if _ok(o[c]["flow_rmse_m_s"]) and _ok(s[c]["flow_rmse_m_s"]))
+    if not both:
+        return Finding(text, "needs sequential and optimized runs", "not run")
+
+    def e(runs, c) -> float:
+        return float(runs[c]["flow_rmse_m_s"])
+
+    lower = [c for c in both if e(o, c) < e(s, c)]
+    parts = [f"case {c}: {e(o, c):.4f} / {e(s, c):.4f}" for c in both]
+    measured = f"Optimized lower in {len(lower)} of {len(both)} cases (opt / seq, m/s): " + _join(parts)
+    unclear = [c for c in (2, 4) if c not in both or not e(o, c) < CLEAR_RATIO * e(s, c)]
+    if len(lower) == len(both) and not unclear:
+        return Finding(text, measured, "holds")
+    why = []
+    not_lower = [c for c in both if c not in lower]
+    if not_lower:
+        why.append(
+            "Optimized is not lower in "
+            + ", ".join(f"case {c} ({e(o, c):.4f} vs {e(s, c):.4f} m/s)" for c in not_lower)
+            + "."
+        )
+    for c in unclear:
+        if c not in both:
+            why.append(f"Case {c} has no pair of runs to compare.")
+        elif c in lower:
+            why.append(
+                f"In case {c} Optimized is only {100 * (1 - e(o, c) / e(s, c)):.0f} % lower "
+                f"({e(o, c):.4f} vs {e(s, c):.4f} m/s; 'clearly' is taken as at least "
+                f"{100 * (1 - CLEAR_RATIO):.0f} % lower)."
+            )
+    apart = [
+        f"case {c} Optimized {o[c]['end_time_s']:.1f} s ({'docked' if o[c]['docked'] else 'no dock'}), "
+        f"Sequential {s[c]['end_time_s']:.1f} s ({'docked' if s[c]['docked'] else 'no dock'})"
+        for c in both
+        if o[c]["docked"] != s[c]["docked"]
+    ]
+    if apart:
+        why.append("Each RMSE is averaged over its run's own duration: " + "; ".join(apart) + ".")
+    return Finding(text, measured, "differs", " ".join(why))
+
+
+def _compute(records) -> Finding:
+    text = (
+        f"Compute per 75 s case: about {PAPER_COMPUTE_S['optimized']:.0f} s (Optimized) and "
+        f"{PAPER_COMPUTE_S['sequential']:.0f} s (Sequential)"
+    )
+    meas, why, ratios = [], [], []
+    for ctrl, label in (("optimized", "Optimized"), ("sequential", "Sequential")):
+        runs = [r for r in _by(records, ctrl).values() if _ok(r.get("wall_time_s"))]
+        if not runs:
+            continue
+        wall = sum(r["wall_time_s"] for r in runs) / len(runs)
+        meas.append(f"{label} {wall:.1f} s")
+        paper = PAPER_COMPUTE_S[ctrl]
+        ratios.append(paper / wall if wall > 0 else math.inf)
+        sim = [r["end_time_s"] for r in runs if _ok(r.get("end_time_s"))]
+        sim_mean = sum(sim) / len(sim) if sim else math.nan
+        sentence = f"{label}: {wall:.1f} s of wall time per case for {sim_mean:.1f} s simulated (mean of "
+        sentence += f"{len(runs)} case{'s' if len(runs) > 1 else ''}) against the paper's {paper:.2f} s"
+        if wall > 0:
+            sentence += f", {paper / wall:.0f} times less"
+        setup = [r["setup_time_s"] for r in runs if _ok(r.get("setup_time_s"))]
+        if setup:
+            sentence += f"; building the controller took {sum(setup) / len(setup):.1f} s more per run"
+        med = [r["solve_time_median_s"] for r in runs if _ok(r.get("solve_time_median_s"))]
+        if med:
+            sentence += f"; median controller step {1e3 * sum(med) / len(med):.2f} ms"
+        why.append(sentence + ".")
+    if not meas:
+        return Finding(text, "no FSE runs", "not run")
+    measured = "mean wall time per case here (controller set-up excluded): " + ", ".join(meas)
+    lo, hi = min(ratios), max(ratios)
+    if lo >= 2:
+        verdict = f"differs ({lo:.0f}-{hi:.0f}x faster)" if hi / lo >= 1.5 else f"differs ({lo:.0f}x faster)"
+    elif hi <= 0.5:
+        verdict = "differs (slower)"
+    else:
+        verdict = "holds"
+    return Finding(text, measured, verdict, " ".join(why))
+
+
+def check_findings(records: Sequence[dict[str, Any]]) -> list[Finding]:
+    """Check each finding of parameters.md section 5b against a campaign's table rows.
+
+    A finding whose runs are not all in the campaign is "not run".  Every explanation is
+    built from the rows' own figures (module docstring).
+    """
+    return [
+        _docking(records, "oracle", _ALL),
+        _docking(records, "sequential", _ALL),
+        _docking(records, "optimized", _ALL),
+        _docking(records, "naive", frozenset({1, 5})),
+        _docking(records, "kinematic", frozenset({1, 5})),
+        _travel(records),
+        _rmse(records),
+        _compute(records),
+    ]

@@ -1,0 +1,1 @@
+"""Importable helpers of the test suite (worker processes import them by name)."""
