@@ -1,10 +1,13 @@
-"""The simulated ArduSub vehicle (auvdock.hardware.vehicle_sim), driven by a pymavlink GCS on loopback."""
+"""The simulated ArduSub vehicle (auvdock.hardware.vehicle_sim), driven by a pymavlink GCS on loopback.
+
+The vehicle and the GCS (the test's thread) share a :class:`auvdock.clock.SimClock`: the
+vehicle's thread and the test run in lockstep in simulated time, so rates, the 3 s override
+lapse and the 3 s failsafe are checked exactly and the tests never wait for the wall clock.
+"""
 
 from __future__ import annotations
 
 import socket
-import threading
-import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -14,6 +17,7 @@ import pytest
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
+from auvdock.clock import SimClock
 from auvdock.hardware.ardusub import MODES, mix, motor_pwm, thrust_from_channels
 from auvdock.hardware.vehicle_sim import (
     STREAMS,
@@ -34,14 +38,21 @@ def mission():
     return load_mission(ROOT / "missions" / "tank_0p6hz.yaml")
 
 
+@pytest.fixture
+def clock() -> Iterator[SimClock]:
+    """The test's simulated clock (the test's thread is its first participant)."""
+    with SimClock() as c:
+        yield c
+
+
 def free_port() -> int:
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
         s.bind((HOST, 0))
         return int(s.getsockname()[1])
 
 
-def gcs(device: str, sysid: int = 255) -> Any:
-    """A pymavlink GCS speaking MAVLink 2 from the start.
+def gcs(device: str, clock: SimClock, sysid: int = 255) -> Any:
+    """A pymavlink GCS speaking MAVLink 2 from the start, its datagrams counted by ``clock``.
 
     Set on the connection itself, so that pymavlink's auto-switch (which sets MAVLINK20 in
     os.environ for the whole process) is not needed; test_stock_pymavlink_gcs covers that path.
@@ -51,18 +62,19 @@ def gcs(device: str, sysid: int = 255) -> Any:
     conn.mav.robust_parsing = True
     conn.WIRE_PROTOCOL_VERSION = "2.0"
     conn.first_byte = False
+    clock.attach(conn)
     return conn
 
 
 @pytest.fixture
-def link(mission) -> Iterator[Callable[..., tuple[VehicleSim, Any]]]:
-    """Factory: (sim on udpout:PORT, GCS sysid 255 on udpin:PORT); closed after the test."""
+def link(mission, clock) -> Iterator[Callable[..., tuple[VehicleSim, Any]]]:
+    """Factory: (sim on udpout:PORT, GCS sysid 255 on udpin:PORT), on ``clock``; closed after the test."""
     opened: list[Any] = []
 
     def make(**kwargs: Any) -> tuple[VehicleSim, Any]:
         port = free_port()
-        conn = gcs(f"udpin:{HOST}:{port}")
-        sim = VehicleSim(mission, port=f"udpout:{HOST}:{port}", **kwargs)
+        conn = gcs(f"udpin:{HOST}:{port}", clock)
+        sim = VehicleSim(mission, port=f"udpout:{HOST}:{port}", clock=clock, **kwargs)
         opened.extend([sim, conn])
         sim.start()
         assert wait_for(conn, "HEARTBEAT", timeout=2.0) is not None
@@ -76,20 +88,42 @@ def link(mission) -> Iterator[Callable[..., tuple[VehicleSim, Any]]]:
             obj.close()
 
 
+def _clock_of(conn: Any) -> SimClock:
+    return conn.port._clock  # the SimClock that counts this connection's datagrams
+
+
+def recv(conn: Any, timeout: float, mtype: str | None = None) -> Any:
+    """The next message (of ``mtype``) within ``timeout`` simulated s, or None."""
+    clock = _clock_of(conn)
+    end = clock.now() + timeout
+    while True:
+        m = conn.recv_match(type=mtype, blocking=False)
+        if m is not None:
+            return m
+        left = end - clock.now()
+        if left <= 0 or not clock.wait_readable(conn, left):
+            return conn.recv_match(type=mtype, blocking=False)
+
+
 def wait_for(conn: Any, mtype: str, cond: Callable[[Any], bool] = lambda m: True, timeout: float = 2.0):
-    end = time.monotonic() + timeout
-    while (left := end - time.monotonic()) > 0:
-        m = conn.recv_match(type=mtype, blocking=True, timeout=left)
-        if m is not None and m.get_srcSystem() == 1 and cond(m):
+    clock = _clock_of(conn)
+    end = clock.now() + timeout
+    while (left := end - clock.now()) >= 0:
+        m = recv(conn, left, mtype)
+        if m is None:
+            return None
+        if m.get_srcSystem() == 1 and cond(m):
             return m
     return None
 
 
 def collect(conn: Any, seconds: float) -> list[Any]:
+    """Every message of the next ``seconds`` simulated s."""
+    clock = _clock_of(conn)
     out = []
-    end = time.monotonic() + seconds
-    while (left := end - time.monotonic()) > 0:
-        m = conn.recv_match(blocking=True, timeout=left)
+    end = clock.now() + seconds
+    while (left := end - clock.now()) > 0:
+        m = recv(conn, left)
         if m is not None and m.get_type() != "BAD_DATA":
             out.append(m)
     return out
@@ -131,14 +165,15 @@ def test_channel_helpers() -> None:
 
 
 # --- link, heartbeat, arming, modes ----------------------------------------------------------
-def test_stock_pymavlink_gcs_heartbeat_and_arming(mission, monkeypatch) -> None:
+def test_stock_pymavlink_gcs_heartbeat_and_arming(mission, clock, monkeypatch) -> None:
     """A plain pymavlink GCS (MAVLink 1 until it hears the vehicle) sees a BlueROV2 and arms it."""
     monkeypatch.delenv("MAVLINK20", raising=False)  # pymavlink's auto-switch sets it; undone afterwards
     monkeypatch.setattr(mavutil, "mavlink", mavutil.mavlink)
     monkeypatch.setattr(mavutil, "current_dialect", mavutil.current_dialect)
     port = free_port()
     conn = mavutil.mavlink_connection(f"udpin:{HOST}:{port}", source_system=255, source_component=190)
-    sim = VehicleSim(mission, port=f"udpout:{HOST}:{port}", speed=2.0)
+    clock.attach(conn)
+    sim = VehicleSim(mission, port=f"udpout:{HOST}:{port}", speed=2.0, clock=clock)
     try:
         sim.start()
         hb = wait_for(conn, "HEARTBEAT", timeout=2.0)
@@ -204,7 +239,7 @@ def test_only_heartbeat_until_requested_then_attitude_at_the_requested_rate(link
     assert sim.stream_intervals == {"ATTITUDE": pytest.approx(0.05)}
     collect(conn, 0.2)  # settle
     att = [m for m in collect(conn, 1.0) if m.get_type() == "ATTITUDE"]
-    assert 16 <= len(att) <= 24, len(att)
+    assert 19 <= len(att) <= 21, len(att)
     steps = np.diff([m.time_boot_ms for m in att])
     assert np.all(steps == 50), steps  # simulated clock: exactly every 50 ms
     assert abs(att[-1].roll) < 0.05 and abs(att[-1].yaw) < 0.05
@@ -247,9 +282,7 @@ def test_imu_pressure_and_servos(link) -> None:
     assert arm(conn) == M.MAV_RESULT_ACCEPTED
     conn.mav.manual_control_send(1, 1000, 0, 500, 0, 0)  # full forward stick, gain 0.5
     want = np.array([1500, 1500, 1500, 1500, 1700, 1500])
-    deadline = time.monotonic() + 1.0
-    while time.monotonic() < deadline and not np.array_equal(sim.channels, want):
-        time.sleep(0.01)
+    _clock_of(conn).sleep(0.0)  # the vehicle handles it at once (same simulated instant)
     assert np.array_equal(sim.channels, want)
     assert np.allclose(sim.thrust, thrust_from_channels(want))
     pwm = motor_pwm(mix((want - 1500) / 400)).round().astype(int).tolist()
@@ -261,14 +294,15 @@ def test_imu_pressure_and_servos(link) -> None:
 def test_override_accepted_only_from_the_gcs_sysid(link) -> None:
     sim, conn = link()
     host, port = sim.local_address  # the vehicle's socket, for a second sender
-    other = gcs(f"udpout:{HOST}:{port}", sysid=42)
+    clock = _clock_of(conn)
+    other = gcs(f"udpout:{HOST}:{port}", clock, sysid=42)
     try:
         assert arm(conn) == M.MAV_RESULT_ACCEPTED
         assert set_interval(conn, "LOCAL_POSITION_NED", 20.0) == M.MAV_RESULT_ACCEPTED
         forward = [1500, 1500, 1500, 1500, 1700, 1500]
         vx_other = []
-        end = time.monotonic() + 0.8
-        while time.monotonic() < end:
+        end = clock.now() + 0.8
+        while clock.now() < end:
             override(other, forward)
             override(conn, forward, target=2)  # right sender, wrong target
             m = wait_for(conn, "LOCAL_POSITION_NED", timeout=0.2)
@@ -280,8 +314,8 @@ def test_override_accepted_only_from_the_gcs_sysid(link) -> None:
         assert any(t == "RC_CHANNELS_OVERRIDE" and src == 42 for _, t, src, _ in sim.received)
 
         vx = 0.0
-        end = time.monotonic() + 2.0
-        while time.monotonic() < end and vx <= 0.1:
+        end = clock.now() + 2.0
+        while clock.now() < end and vx <= 0.1:
             override(conn, forward)
             m = wait_for(conn, "LOCAL_POSITION_NED", timeout=0.2)
             if m is not None:
@@ -294,10 +328,11 @@ def test_override_accepted_only_from_the_gcs_sysid(link) -> None:
 
 def test_pilot_input_failsafe_disarms_3s_after_last_override(link) -> None:
     sim, conn = link()
+    clock = _clock_of(conn)
     assert arm(conn) == M.MAV_RESULT_ACCEPTED
     for _ in range(5):
         override(conn, [1500] * 6)
-        time.sleep(0.1)
+        clock.sleep(0.1)
     text = wait_for(conn, "STATUSTEXT", lambda m: "Lost manual control" in m.text, timeout=4.0)
     assert text is not None and text.severity == M.MAV_SEVERITY_CRITICAL
     assert not sim.armed
@@ -305,34 +340,33 @@ def test_pilot_input_failsafe_disarms_3s_after_last_override(link) -> None:
     kinds = [e.kind for e in sim.events]
     assert kinds == ["arm", "failsafe", "disarm"]
     fs = sim.events[1]
-    assert 2.8 <= fs.wall_time - last <= 3.4, fs.wall_time - last
+    assert fs.wall_time - last == pytest.approx(3.0, abs=0.011)  # clock.time(): simulated s
     assert sim.events[2].detail == "pilot input failsafe"
     assert wait_for(conn, "HEARTBEAT", lambda m: not m.base_mode & ARMED, timeout=1.5) is not None
 
 
 def test_override_lapses_3s_after_the_last_message(link) -> None:
-    sim, conn = link(speed=4.0)  # simulated clock: 3 s lapse in 0.75 s of wall time
+    sim, conn = link(speed=4.0)  # 4 simulated s per clock s: the 3 s lapse in 0.75 s of the clock
+    clock = _clock_of(conn)
     override(conn, [1500, 1500, 1600, 1500, 1700, 1400])
-    deadline = time.monotonic() + 1.0
-    while time.monotonic() < deadline and sim.channels[4] != 1700:
-        time.sleep(0.005)
+    clock.sleep(0.0)  # handled at once
     t0 = sim.t
     assert sim.channels.tolist() == [1500, 1500, 1600, 1500, 1700, 1400]
     assert np.all(sim.thrust == 0)  # disarmed
     while sim.t < t0 + 2.9:
-        time.sleep(0.005)
+        clock.sleep(0.005)
     assert sim.channels[4] == 1700
+    assert clock.now() == pytest.approx(sim.t / 4.0, abs=0.01)  # speed 4: 4 vehicle s per clock s
     while sim.t < t0 + 3.05:
-        time.sleep(0.005)
+        clock.sleep(0.005)
     assert sim.channels.tolist() == [1500] * 6
 
 
 # --- test hooks and robustness ---------------------------------------------------------------
 def test_pause_telemetry_stops_heartbeat(link) -> None:
-    sim, conn = link(speed=2.0)  # heartbeat every 0.5 s of wall time
+    sim, conn = link(speed=2.0)  # heartbeat every 0.5 s of the clock
     sim.pause_telemetry(True)
-    collect(conn, 0.05)  # anything already in flight
-    assert collect(conn, 1.3) == []
+    assert collect(conn, 1.3) == []  # nothing is in flight: messages are read when sent
     sim.pause_telemetry(False)
     assert wait_for(conn, "HEARTBEAT", timeout=1.0) is not None
 
@@ -340,22 +374,26 @@ def test_pause_telemetry_stops_heartbeat(link) -> None:
 def test_garbage_is_ignored(link) -> None:
     sim, conn = link()
     _, port = sim.local_address
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as raw:
+    raw = mavutil.mavlink_connection(f"udpout:{HOST}:{port}")  # raw datagrams, counted by the clock
+    _clock_of(conn).attach(raw)
+    try:
         rng = np.random.default_rng(1)
         for n in (1, 7, 64, 280):
-            raw.sendto(rng.integers(0, 256, n, dtype=np.uint8).tobytes(), (HOST, port))
-        raw.sendto(b"\xfd\x09\x00\x00\x00\xff\xbe\x00\x00", (HOST, port))  # truncated MAVLink 2
-        raw.sendto(b"\xfe\xff" + b"\x00" * 20, (HOST, port))  # MAVLink 1 magic, nonsense
-    time.sleep(0.1)
+            raw.write(rng.integers(0, 256, n, dtype=np.uint8).tobytes())
+        raw.write(b"\xfd\x09\x00\x00\x00\xff\xbe\x00\x00")  # truncated MAVLink 2
+        raw.write(b"\xfe\xff" + b"\x00" * 20)  # MAVLink 1 magic, nonsense
+    finally:
+        raw.close()
+    _clock_of(conn).sleep(0.1)
     assert sim.running
     assert arm(conn) == M.MAV_RESULT_ACCEPTED
     assert sim.garbage_count >= 1
 
 
-def test_udpin_vehicle_replies_to_its_client(mission) -> None:
+def test_udpin_vehicle_replies_to_its_client(mission, clock) -> None:
     port = free_port()
-    with VehicleSim(mission, port=f"udpin:{HOST}:{port}") as sim:
-        conn = gcs(f"udpout:{HOST}:{port}")
+    with VehicleSim(mission, port=f"udpin:{HOST}:{port}", clock=clock) as sim:
+        conn = gcs(f"udpout:{HOST}:{port}", clock)
         try:
             conn.mav.heartbeat_send(M.MAV_TYPE_GCS, M.MAV_AUTOPILOT_INVALID, 0, 0, 0)
             assert wait_for(conn, "HEARTBEAT", timeout=2.0) is not None
@@ -365,12 +403,15 @@ def test_udpin_vehicle_replies_to_its_client(mission) -> None:
     assert not sim.running
 
 
-def test_run_forever_returns_when_stopped(mission) -> None:
-    sim = VehicleSim(mission, port=f"udpout:{HOST}:{free_port()}")
-    timer = threading.Timer(0.3, sim.stop)
-    timer.start()
-    t0 = time.monotonic()
+def test_run_forever_returns_when_stopped(mission, clock) -> None:
+    sim = VehicleSim(mission, port=f"udpout:{HOST}:{free_port()}", clock=clock)
+
+    def stop_later() -> None:
+        clock.sleep(0.3)
+        sim.stop()
+
+    sim.start()
+    clock.start_thread(stop_later, "stopper")
     sim.run_forever()
-    timer.join()
-    assert not sim.running and time.monotonic() - t0 < 2.0
-    assert sim.t > 0.1
+    assert not sim.running
+    assert sim.t == pytest.approx(0.3, abs=0.011)

@@ -21,18 +21,23 @@ the heave model predicts (Assumption 2) and each fix is weighed by its covarianc
 
 Detection runs in its own thread (OpenCV releases the GIL in its image work), so the 20 Hz
 control loop never waits for a frame.
+
+Every wait, frame pacing and time stamp goes through a :class:`auvdock.clock.Clock` (the
+wall clock by default): with the fly session's :class:`auvdock.clock.SimClock` the synthetic
+camera, the frame grabber and the detection thread run in lockstep with the control loop,
+and rendering and detection take no simulated time (latency 0).
 """
 
 from __future__ import annotations
 
 import collections
 import threading
-import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..clock import Clock, wall_clock
 from ..dock import HeaveDock
 from ..geometry import rotation_zyx
 from .layout import MarkerLayout
@@ -63,7 +68,7 @@ class SyntheticCamera:
         ``pose_fn() -> (t, eta)``: mission time (s) and vehicle pose (6,) in the mission
         frame, or None before the first telemetry.
     rate_hz : float
-        Frame rate, Hz (frames are paced in real time).
+        Frame rate, Hz (frames are paced on ``clock``).
     noise_std, blur_px : float
         Image noise (grey levels) and Gaussian blur (px).
     offset_ned_m : array_like (3,)
@@ -72,6 +77,8 @@ class SyntheticCamera:
         Mission-time windows (s) in which the markers are hidden (blank frames).
     seed : int
         Noise seed.
+    clock : Clock, optional
+        What frames are paced on and stamped with (default the wall clock).
     """
 
     def __init__(
@@ -88,6 +95,7 @@ class SyntheticCamera:
         offset_ned_m: np.ndarray | list[float] = (0.0, 0.0, 0.0),
         dropout_s: list[list[float]] | None = None,
         seed: int = 0,
+        clock: Clock | None = None,
     ) -> None:
         if rate_hz <= 0:
             raise ValueError(f"rate_hz must be positive, got {rate_hz}")
@@ -98,7 +106,8 @@ class SyntheticCamera:
         self.offset = np.asarray(offset_ned_m, dtype=float)
         self.dropout = [(float(a), float(b)) for a, b in (dropout_s or [])]
         self._rng = np.random.default_rng(seed)
-        self._next = time.monotonic()
+        self.clock: Clock = wall_clock if clock is None else clock
+        self._next = self.clock.now()
         self._index = 0
         self._closed = False
         self.description = f"synthetic camera {camera.width}x{camera.height} at {rate_hz:g} Hz"
@@ -109,22 +118,23 @@ class SyntheticCamera:
 
     def read(self, timeout_s: float = 1.0) -> Frame | None:
         """The next frame (paced at the frame rate), or None on timeout / before any pose."""
-        deadline = time.monotonic() + timeout_s
+        clock = self.clock
+        deadline = clock.now() + timeout_s
         while not self._closed:
-            now = time.monotonic()
+            now = clock.now()
             if now < self._next:
                 if self._next > deadline:
-                    time.sleep(max(0.0, deadline - now))
+                    clock.sleep(max(0.0, deadline - now))
                     return None
-                time.sleep(self._next - now)
-            self._next = max(self._next + self.period, time.monotonic())
+                clock.sleep(self._next - now)
+            self._next = max(self._next + self.period, clock.now())
             pose = self.pose_fn()
             if pose is None:
-                if time.monotonic() > deadline:
+                if clock.now() > deadline:
                     return None
                 continue
             t, eta = pose
-            t_capture = time.monotonic()
+            t_capture = clock.now()
             if self.hidden(t):
                 img = np.full((self.camera.height, self.camera.width), 110, dtype=np.uint8)
             else:
@@ -196,9 +206,12 @@ class DockTracker:
         Intrinsics, dock markers, camera pose on the vehicle.
     pose_at : callable
         ``pose_at(t_capture) -> (t, eta) | None``: the mission time and the vehicle's pose
-        (6,) at a ``time.monotonic()`` instant (the control loop's pose history).
+        (6,) at a clock instant (the control loop's pose history).
     max_reprojection_px : float
         Marker rejection threshold of the fused pose, px.
+    clock : Clock, optional
+        What the thread waits on and latencies are measured with (default the wall clock;
+        the source must use the same clock).
     """
 
     def __init__(
@@ -210,22 +223,25 @@ class DockTracker:
         pose_at: Callable[[float], tuple[float, np.ndarray] | None],
         *,
         max_reprojection_px: float = 3.0,
+        clock: Clock | None = None,
     ) -> None:
+        self.clock: Clock = wall_clock if clock is None else clock
         self.camera, self.layout, self.mount = camera, layout, mount
         self.detector = MarkerDetector(layout, camera)
         self.pose_at = pose_at
         self.max_reprojection_px = float(max_reprojection_px)
-        self.grabber = LatestFrameGrabber(source)
+        self.grabber = LatestFrameGrabber(source, clock=self.clock)
         self._fixes: collections.deque[DockFix] = collections.deque(maxlen=100)
         self._lock = threading.Lock()
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._loop, name="auvdock-dock-tracker", daemon=True)
+        self._stop = self.clock.event()
+        self._thread: threading.Thread | None = None
         self.frames = 0
         self.frames_with_fix = 0
         self.error: BaseException | None = None
 
     def start(self) -> DockTracker:
-        self._thread.start()
+        if self._thread is None:
+            self._thread = self.clock.start_thread(self._loop, name="auvdock-dock-tracker")
         return self
 
     def stop(self) -> None:
@@ -235,8 +251,8 @@ class DockTracker:
             self.grabber.stop()
         except Exception:  # noqa: BLE001
             pass
-        if self._thread.is_alive():
-            self._thread.join(timeout=2.0)
+        if self._thread is not None and self._thread.is_alive():
+            self.clock.join(self._thread, timeout=2.0)
 
     def fixes(self) -> list[DockFix]:
         """The fixes made since the last call (oldest first)."""
@@ -288,7 +304,7 @@ class DockTracker:
             yaw_rel_rad=float(yaw_rel),
             markers=len(pose.markers_used),
             reprojection_px=float(pose.reproj_rms_px),
-            latency_s=time.monotonic() - frame.t_capture,
+            latency_s=self.clock.now() - frame.t_capture,
         )
 
 

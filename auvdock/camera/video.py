@@ -28,7 +28,13 @@ a directory of images (or one image file)
 Latency (measured on loopback, PyAV 18.1 / FFmpeg 8.1, x264 ``zerolatency``): a 320x240 frame is decoded one
 frame interval plus ~1.5 ms after it was sent (51.5 ms at 20 fps, 34.6 ms at 30 fps); 1920x1080 at 30 fps
 takes ~70 ms including the x264 encode. The frame interval comes from FFmpeg's H.264 parser, which completes
-a frame only when the next one begins. Times are s (``time.monotonic()``), images are (h, w) ``uint8`` arrays.
+a frame only when the next one begins. Images are (h, w) ``uint8`` arrays.
+
+Clock. Times are s on a :class:`auvdock.clock.Clock` (``time.monotonic()`` with the default wall clock). The
+sources that pace themselves (video files and image folders with ``realtime``), :class:`LatestFrameGrabber`
+and :func:`stream_rtp` take a ``clock``, so that they can run in simulated time
+(:class:`auvdock.clock.SimClock`, for tests); live sources (RTP, V4L2) run on the wall clock only: their
+frames come from devices and FFmpeg in real time.
 """
 
 from __future__ import annotations
@@ -53,6 +59,8 @@ from typing import Any, Protocol, Self, runtime_checkable
 
 import cv2
 import numpy as np
+
+from ..clock import Clock, wall_clock
 
 __all__ = [
     "RTP_PAYLOAD_TYPE",
@@ -120,10 +128,11 @@ class Frame:
     image : ndarray, uint8, shape (h, w)
         Grayscale image.
     t_capture : float
-        ``time.monotonic()`` (s) at which this process had the decoded frame: just after decoding for RTP
-        streams, just after ``VideoCapture.read`` for V4L2 devices, at release (after decoding and pacing)
-        for video files and image folders. It does not include the latency before (exposure, encoding,
-        network and FFmpeg's one-frame parser delay for RTP: see the module doc).
+        Clock time (s; ``time.monotonic()`` on the wall clock) at which this process had the decoded
+        frame: just after decoding for RTP streams, just after ``VideoCapture.read`` for V4L2 devices, at
+        release (after decoding and pacing) for video files and image folders. It does not include the
+        latency before (exposure, encoding, network and FFmpeg's one-frame parser delay for RTP: see the
+        module doc).
     index : int
         Frame counter of the source, from 0, one per frame the source produced (decoded); a gap means the
         source dropped frames (e.g. its queue was full).
@@ -551,6 +560,8 @@ class VideoFileSource(_SourceBase):
     realtime : bool
         Release each frame at its presentation time after the first one (as a live camera would; frames are
         not skipped when the reader is slow); False gives them as fast as they decode.
+    clock : Clock, optional
+        What pacing and ``t_capture`` use (default the wall clock).
 
     Raises
     ------
@@ -560,8 +571,9 @@ class VideoFileSource(_SourceBase):
         FFmpeg cannot open it or it has no video stream.
     """
 
-    def __init__(self, path: str | Path, *, realtime: bool = True) -> None:
+    def __init__(self, path: str | Path, *, realtime: bool = True, clock: Clock | None = None) -> None:
         av = _import_av()
+        self.clock: Clock = wall_clock if clock is None else clock
         self.path = Path(path)
         self.realtime = bool(realtime)
         if not self.path.is_file():
@@ -591,7 +603,7 @@ class VideoFileSource(_SourceBase):
             return self._t0 + (pts_s - self._pts0)
         if self.fps:
             return self._t0 + self._index / self.fps
-        return time.monotonic()
+        return self.clock.now()
 
     def read(self, timeout_s: float = 1.0) -> Frame | None:
         """Next frame; None if (``realtime``) it is not due within ``timeout_s`` s.
@@ -614,17 +626,18 @@ class VideoFileSource(_SourceBase):
                 raise VideoSourceError(f"{self.description}: {exc}") from exc
             self._pending = (vf.to_ndarray(format="gray"), None if vf.time is None else float(vf.time))
         image, pts_s = self._pending
+        clock = self.clock
         if self.realtime:
             if self._t0 is None:
-                self._t0, self._pts0 = time.monotonic(), pts_s
-            wait = self._due(pts_s) - time.monotonic()
+                self._t0, self._pts0 = clock.now(), pts_s
+            wait = self._due(pts_s) - clock.now()
             if wait > timeout_s:
-                time.sleep(timeout_s)
+                clock.sleep(timeout_s)
                 return None
             if wait > 0:
-                time.sleep(wait)
+                clock.sleep(wait)
         self._pending = None
-        frame = Frame(np.ascontiguousarray(image), time.monotonic(), self._index, pts_s)
+        frame = Frame(np.ascontiguousarray(image), clock.now(), self._index, pts_s)
         self._index += 1
         return frame
 
@@ -644,6 +657,8 @@ class ImageFolderSource(_SourceBase):
         Read with :func:`auvdock.camera.calibration.image_sources`.
     fps : float or None
         Release rate when given (frames/s), else as fast as they are read.
+    clock : Clock, optional
+        What pacing and ``t_capture`` use (default the wall clock).
 
     Raises
     ------
@@ -651,9 +666,10 @@ class ImageFolderSource(_SourceBase):
         Missing path, or a directory without images (from ``image_sources``).
     """
 
-    def __init__(self, path: str | Path, *, fps: float | None = None) -> None:
+    def __init__(self, path: str | Path, *, fps: float | None = None, clock: Clock | None = None) -> None:
         from auvdock.camera.calibration import image_sources
 
+        self.clock: Clock = wall_clock if clock is None else clock
         if fps is not None and not (math.isfinite(fps) and fps > 0):
             raise ValueError(f"fps: expected a positive frame rate, got {fps}")
         self.path = Path(path)
@@ -674,17 +690,18 @@ class ImageFolderSource(_SourceBase):
                 self._pending = next(self._images)
             except StopIteration:
                 raise EOFError(f"{self.description}: no more images") from None
+        clock = self.clock
         if self.fps:
             if self._t0 is None:
-                self._t0 = time.monotonic()
-            wait = self._t0 + self._index / self.fps - time.monotonic()
+                self._t0 = clock.now()
+            wait = self._t0 + self._index / self.fps - clock.now()
             if wait > timeout_s:
-                time.sleep(timeout_s)
+                clock.sleep(timeout_s)
                 return None
             if wait > 0:
-                time.sleep(wait)
+                clock.sleep(wait)
         image, self._pending = self._pending, None
-        frame = Frame(image, time.monotonic(), self._index, None)
+        frame = Frame(image, clock.now(), self._index, None)
         self._index += 1
         return frame
 
@@ -708,7 +725,9 @@ _V4L2 = re.compile(r"(?:/dev/video|v4l2:)(?P<n>\d+)")
 _IPV4 = re.compile(r"\d{1,3}(?:\.\d{1,3}){3}")
 
 
-def open_source(spec: str, *, realtime: bool = True, image_fps: float = 10.0) -> FrameSource:
+def open_source(
+    spec: str, *, realtime: bool = True, image_fps: float = 10.0, clock: Clock | None = None
+) -> FrameSource:
     """Open a camera, stream or recording as a :class:`FrameSource`.
 
     Parameters
@@ -722,6 +741,8 @@ def open_source(spec: str, *, realtime: bool = True, image_fps: float = 10.0) ->
         as a live camera would; False gives them as fast as they are read. Live sources ignore it.
     image_fps : float
         Frame rate of image folders when ``realtime``, frames/s.
+    clock : Clock, optional
+        Files and image folders only: the clock they pace on (default the wall clock).
 
     Returns
     -------
@@ -750,13 +771,13 @@ def open_source(spec: str, *, realtime: bool = True, image_fps: float = 10.0) ->
     if s and not re.match(r"(udp|rtp|v4l2|rtsp|https?|tcp):", s):
         path = Path(s).expanduser()
         if path.is_dir():
-            return ImageFolderSource(path, fps=image_fps if realtime else None)
+            return ImageFolderSource(path, fps=image_fps if realtime else None, clock=clock)
         if path.is_file():
             from auvdock.camera.calibration import IMAGE_SUFFIXES
 
             if path.suffix.lower() in IMAGE_SUFFIXES:
-                return ImageFolderSource(path, fps=None)
-            return VideoFileSource(path, realtime=realtime)
+                return ImageFolderSource(path, fps=None, clock=clock)
+            return VideoFileSource(path, realtime=realtime, clock=clock)
         if path.suffix or os.sep in s:
             raise ValueError(f"video source {spec!r}: no such file or directory (accepted: {SOURCE_FORMS})")
     raise ValueError(f"video source {spec!r} not recognised; accepted: {SOURCE_FORMS}")
@@ -777,6 +798,9 @@ class LatestFrameGrabber:
         ``read`` timeout of the thread, s (how often it checks for :meth:`stop`).
     close_source : bool
         Close the source in :meth:`stop` (default).
+    clock : Clock, optional
+        What the reader thread and :meth:`wait_new` wait on (default the wall clock; the source's own
+        waits must use the same clock).
 
     Use as a context manager, or call :meth:`stop`::
 
@@ -786,15 +810,23 @@ class LatestFrameGrabber:
             frame = grabber.latest()  # each control tick; check frame.index / frame.t_capture for freshness
     """
 
-    def __init__(self, source: FrameSource, *, poll_s: float = 0.1, close_source: bool = True) -> None:
+    def __init__(
+        self,
+        source: FrameSource,
+        *,
+        poll_s: float = 0.1,
+        close_source: bool = True,
+        clock: Clock | None = None,
+    ) -> None:
         if not (math.isfinite(poll_s) and poll_s > 0):
             raise ValueError(f"poll_s: expected a positive time, s, got {poll_s}")
+        self.clock: Clock = wall_clock if clock is None else clock
         self.source = source
         self.description = getattr(source, "description", type(source).__name__)
         self._poll_s = float(poll_s)
         self._close_source = close_source
-        self._cond = threading.Condition()
-        self._stop_event = threading.Event()
+        self._cond = self.clock.condition()
+        self._stop_event = self.clock.event()
         self._latest: Frame | None = None
         self._taken = True
         self._frames_read = 0
@@ -802,8 +834,7 @@ class LatestFrameGrabber:
         self._error: BaseException | None = None
         self._running = True
         self._stopped = False
-        self._thread = threading.Thread(target=self._run, name="auvdock-frame-grabber", daemon=True)
-        self._thread.start()
+        self._thread = self.clock.start_thread(self._run, name="auvdock-frame-grabber")
 
     def _run(self) -> None:
         try:
@@ -878,7 +909,7 @@ class LatestFrameGrabber:
         self._stopped = True
         self._stop_event.set()
         if self._thread is not threading.current_thread():
-            self._thread.join(timeout=max(0.0, float(timeout_s)))
+            self.clock.join(self._thread, timeout=max(0.0, float(timeout_s)))
         if self._thread.is_alive():  # pragma: no cover - source read stuck in native code
             log.warning("%s: frame grabber thread did not stop; source left open", self.description)
             return
@@ -945,6 +976,7 @@ def stream_rtp(
     encoder: str | None = None,
     stop: threading.Event | None = None,
     on_sent: Callable[[int, float], None] | None = None,
+    clock: Clock | None = None,
 ) -> int:
     """Encode frames to H.264 and send them as RTP to ``host:port`` (what BlueOS does), paced at ``fps``.
 
@@ -972,7 +1004,9 @@ def stream_rtp(
     stop : threading.Event or None
         Set it to stop early (checked between frames).
     on_sent : callable or None
-        ``on_sent(k, t)``: called after frame k was handed to the muxer at ``time.monotonic()`` t (s).
+        ``on_sent(k, t)``: called after frame k was handed to the muxer at clock time t (s).
+    clock : Clock, optional
+        What the pacing uses (default the wall clock).
 
     Returns
     -------
@@ -1012,7 +1046,8 @@ def stream_rtp(
             port,
             payload_type,
         )
-        t0 = time.monotonic()
+        clock = wall_clock if clock is None else clock
+        t0 = clock.now()
         k0 = 0
         image: np.ndarray | None = first
         while image is not None:
@@ -1028,19 +1063,19 @@ def stream_rtp(
                 format="yuv420p"
             )
             vf.pts = sent
-            delay = t0 + (sent - k0) / fps - time.monotonic()
+            delay = t0 + (sent - k0) / fps - clock.now()
             if delay > 0:
                 if stop is not None:
                     if stop.wait(delay):
                         break
                 else:
-                    time.sleep(delay)
+                    clock.sleep(delay)
             elif delay < -1.0 / fps:
-                t0, k0 = time.monotonic(), sent  # late: restart the schedule here rather than burst
+                t0, k0 = clock.now(), sent  # late: restart the schedule here rather than burst
             for packet in stream.encode(vf):
                 out.mux(packet)
             if on_sent is not None:
-                on_sent(sent, time.monotonic())
+                on_sent(sent, clock.now())
             sent += 1
             image = next(it, None)
         for packet in stream.encode(None):

@@ -1,8 +1,11 @@
-"""``auvdock markers`` and ``auvdock calibrate``: the dock's marker sheet and the camera file."""
+"""``auvdock markers`` and ``auvdock calibrate``: the dock's marker sheet and the camera file.
+
+A live calibration waits on :data:`clock` (the wall clock; a test may set a
+:class:`auvdock.clock.SimClock`, which paces video files and image folders too).
+"""
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import typer
@@ -10,7 +13,11 @@ import yaml
 from rich import box
 from rich.table import Table
 
+from ..clock import Clock, wall_clock
 from .app import app, console, fail_input, load_or_exit
+
+#: The clock a live calibration waits on.
+clock: Clock = wall_clock
 
 
 def _load_layout(path: Path):
@@ -102,14 +109,14 @@ def calibrate(
         from ..camera.video import open_source
 
         try:
-            src = open_source(source)
+            src = open_source(source, clock=clock)
         except (OSError, ValueError, RuntimeError) as e:
             fail_input(f"{source}: {e}")
             raise AssertionError("unreachable") from None
         last = 0.0
         with src, console.status(f"collecting {frames} views of the {cols}x{rows} board from {source}") as st:
-            deadline = time.monotonic() + 60.0 + frames
-            while len(images) < frames and time.monotonic() < deadline:
+            deadline = clock.now() + 60.0 + frames
+            while len(images) < frames and clock.now() < deadline:
                 f = src.read(timeout_s=1.0)
                 if f is None or f.t_capture - last < 0.5:
                     continue

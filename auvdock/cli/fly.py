@@ -1,4 +1,10 @@
-"""``auvdock fly`` and ``auvdock vehicle-sim``: the MAVLink vehicle and its rehearsal."""
+"""``auvdock fly`` and ``auvdock vehicle-sim``: the MAVLink vehicle and its rehearsal.
+
+Both run on :data:`clock`, the wall clock.  Tests replace it with a
+:class:`auvdock.clock.SimClock` shared with an in-process vehicle simulator
+(``monkeypatch.setattr(auvdock.cli.fly, "clock", sim_clock)``) to run the commands in
+simulated time.
+"""
 
 from __future__ import annotations
 
@@ -7,8 +13,12 @@ from pathlib import Path
 
 import typer
 
+from ..clock import Clock, wall_clock
 from ..mission import CONTROLLER_TYPES, MissionError
 from .app import app, console, err_console, fail_input, load_or_exit
+
+#: The clock ``fly`` and ``vehicle-sim`` wait and pace on.
+clock: Clock = wall_clock
 
 
 @app.command()
@@ -56,8 +66,8 @@ def fly(
     mode = "[bold red]ARMED[/bold red]" if arm else "[yellow]dry run (no --arm): neutral thrust only[/yellow]"
     console.print(f"[bold]fly[/bold] {m.name} / {name} on {port}: {mode}")
     try:
-        link = MavlinkLink(port, sysid=sysid, tlog=tlog)
-    except OSError as e:
+        link = MavlinkLink(port, sysid=sysid, tlog=tlog, clock=clock)
+    except (OSError, ValueError) as e:
         fail_input(f"--port {port}: {e}")
         raise AssertionError("unreachable") from None
     try:
@@ -67,10 +77,10 @@ def fly(
         link.close()
         fail_input(str(e))
         raise AssertionError("unreachable") from None
-    last = [0.0]
+    last = [-1e9]
 
     def on_step(t: float, dist: float, status: str) -> None:
-        now = time.monotonic()
+        now = link.clock.now()
         if now - last[0] > 1.0:
             last[0] = now
             console.print(f"  t = {t:6.2f} s  distance {dist:6.3f} m  solver {status}")
@@ -113,7 +123,7 @@ def vehicle_sim(
         f"speed {speed:g}x; Ctrl-C to stop"
     )
     try:
-        sim = VehicleSim(m, port=port, speed=speed)
+        sim = VehicleSim(m, port=port, speed=speed, clock=clock)
         sim.run_forever()
     except OSError as e:
         fail_input(f"--port {port}: {e}")

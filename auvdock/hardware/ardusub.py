@@ -93,6 +93,9 @@ def motor_pwm(commands: np.ndarray) -> np.ndarray:
 
 _F_GRID = np.linspace(-60.0, 60.0, 24001)
 _PWM_GRID = t200_force_to_pwm(_F_GRID)
+# the two branches of the curve, cut once (each is monotonic in PWM)
+_FWD_PWM, _FWD_F = _PWM_GRID[_F_GRID > 0], _F_GRID[_F_GRID > 0]
+_REV_PWM, _REV_F = _PWM_GRID[_F_GRID < 0], _F_GRID[_F_GRID < 0]
 
 
 def t200_pwm_to_force(pwm_us: np.ndarray | float) -> np.ndarray:
@@ -102,9 +105,8 @@ def t200_pwm_to_force(pwm_us: np.ndarray | float) -> np.ndarray:
     Interpolated on a 5 mN grid of the fitted curve (parameters.md section 1).
     """
     p = np.asarray(pwm_us, dtype=float)
-    fwd = np.interp(p, _PWM_GRID[_F_GRID > 0], _F_GRID[_F_GRID > 0], left=0.0)
-    rev_p, rev_f = _PWM_GRID[_F_GRID < 0], _F_GRID[_F_GRID < 0]
-    rev = np.interp(p, rev_p, rev_f, right=0.0)
+    fwd = np.interp(p, _FWD_PWM, _FWD_F, left=0.0)
+    rev = np.interp(p, _REV_PWM, _REV_F, right=0.0)
     return np.where(p > PWM_NEUTRAL_US, fwd, np.where(p < PWM_NEUTRAL_US, rev, 0.0))
 
 

@@ -17,6 +17,12 @@ Facts from ArduSub's source this follows:
 * arming is MAV_CMD_COMPONENT_ARM_DISARM, answered with COMMAND_ACK, and shows as the
   MAV_MODE_FLAG_SAFETY_ARMED bit of HEARTBEAT.base_mode;
 * telemetry rates are set with MAV_CMD_SET_MESSAGE_INTERVAL (param3 = 0).
+
+Every wait (the heartbeat, a COMMAND_ACK, a mode or the armed bit, the reader's and the
+heartbeat thread's pauses) and every time stamp (message ages, tlog records) goes through
+the link's :class:`auvdock.clock.Clock`: the wall clock by default, or a
+:class:`auvdock.clock.SimClock` shared with :class:`auvdock.hardware.vehicle_sim.VehicleSim`
+to fly in simulated time (UDP connections only).
 """
 
 from __future__ import annotations
@@ -25,7 +31,6 @@ import inspect
 import re
 import struct
 import threading
-import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -33,6 +38,7 @@ from typing import Any
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
+from ..clock import Clock, ClockClosedError, wall_clock
 from .ardusub import MODES, NEUTRAL_CHANNELS
 
 __all__ = ["LinkError", "MavlinkLink", "connection_string"]
@@ -87,6 +93,8 @@ class MavlinkLink:
     on_event : callable, optional
         ``on_event(text)`` for link events (connected, armed, mode changed, ...); also the
         attribute ``on_event``, which a session may set after construction.
+    clock : Clock, optional
+        What the link waits on and stamps with (default the wall clock).
     """
 
     def __init__(
@@ -96,7 +104,9 @@ class MavlinkLink:
         sysid: int = 255,
         tlog: str | Path | None = None,
         on_event: Callable[[str], None] | None = None,
+        clock: Clock | None = None,
     ) -> None:
+        self.clock: Clock = wall_clock if clock is None else clock
         self.port = port
         self.url = connection_string(port)
         self.sysid = int(sysid)
@@ -105,7 +115,7 @@ class MavlinkLink:
         self._tlog_lock = threading.Lock()
         self._latest: dict[str, tuple[Any, float]] = {}
         self._acks: list[tuple[int, int, float]] = []
-        self._stop = threading.Event()
+        self._stop = self.clock.event()
         self._threads: list[threading.Thread] = []
         self._tlog = open(tlog, "wb") if tlog is not None else None  # noqa: SIM115 -- closed in close()
         self.target_system = 1
@@ -122,6 +132,7 @@ class MavlinkLink:
         self.conn.mav.set_send_callback(self._on_send)
         params = inspect.signature(self.conn.mav.rc_channels_override_send).parameters
         self._override_v2 = "chan18_raw" in params
+        self.clock.attach(self.conn)
 
     # -- recording ------------------------------------------------------------------------
     def _record(self, buf: bytes) -> None:
@@ -129,7 +140,7 @@ class MavlinkLink:
             return
         with self._tlog_lock:
             if not self._tlog.closed:
-                self._tlog.write(struct.pack(">Q", int(time.time() * 1e6)) + bytes(buf))
+                self._tlog.write(struct.pack(">Q", int(self.clock.time() * 1e6)) + bytes(buf))
 
     def _on_send(self, msg: Any) -> None:
         try:
@@ -150,14 +161,15 @@ class MavlinkLink:
         LinkError
             If no ArduSub heartbeat arrives within ``timeout_s`` (the message names the port).
         """
-        deadline = time.monotonic() + timeout_s
+        clock = self.clock
+        deadline = clock.now() + timeout_s
         hb = None
-        next_gcs_hb = 0.0
-        while time.monotonic() < deadline:
-            if time.monotonic() >= next_gcs_hb:  # udpout/tcp peers need traffic to learn about us
+        next_gcs_hb = clock.now()
+        while clock.now() < deadline:
+            if clock.now() >= next_gcs_hb:  # udpout/tcp peers need traffic to learn about us
                 self._send_heartbeat()
-                next_gcs_hb = time.monotonic() + 1.0
-            msg = self.conn.recv_match(type="HEARTBEAT", blocking=True, timeout=0.2)
+                next_gcs_hb = clock.now() + 1.0
+            msg = self._recv(min(0.2, max(0.0, deadline - clock.now())), "HEARTBEAT")
             if msg is None:
                 continue
             self._record(msg.get_msgbuf())
@@ -172,19 +184,26 @@ class MavlinkLink:
         self.target_system = hb.get_srcSystem()
         self.target_component = hb.get_srcComponent()
         with self._lock:
-            self._latest["HEARTBEAT"] = (hb, time.monotonic())
+            self._latest["HEARTBEAT"] = (hb, clock.now())
         self._event(f"connected to system {self.target_system} on {self.port}")
         for fn in (self._reader, self._heartbeater):
-            t = threading.Thread(target=fn, name=f"mavlink-{fn.__name__.strip('_')}", daemon=True)
-            t.start()
-            self._threads.append(t)
+            self._threads.append(clock.start_thread(fn, name=f"mavlink-{fn.__name__.strip('_')}"))
         return hb
+
+    def _recv(self, timeout_s: float, mtype: str | None = None) -> Any:
+        """The next message (of ``mtype`` if given; others read meanwhile are dropped), or None."""
+        if not self.clock.simulated:
+            return self.conn.recv_match(type=mtype, blocking=True, timeout=timeout_s)
+        msg = self.conn.recv_match(type=mtype, blocking=False)
+        if msg is None and self.clock.wait_readable(self.conn, timeout_s):
+            msg = self.conn.recv_match(type=mtype, blocking=False)
+        return msg
 
     def close(self) -> None:
         """Stop the threads and close the connection and the tlog."""
         self._stop.set()
         for t in self._threads:
-            t.join(timeout=2.0)
+            self.clock.join(t, timeout=2.0)
         try:
             self.conn.close()
         except Exception:  # noqa: BLE001
@@ -203,10 +222,13 @@ class MavlinkLink:
     def _reader(self) -> None:
         while not self._stop.is_set():
             try:
-                msg = self.conn.recv_match(blocking=True, timeout=0.05)
+                msg = self._recv(0.05)
+            except ClockClosedError:
+                return
             except Exception:  # noqa: BLE001 -- a garbled packet or a closed socket
                 if self._stop.is_set():
                     return
+                self.clock.sleep(0.01)
                 continue
             if msg is None:
                 continue
@@ -217,7 +239,7 @@ class MavlinkLink:
             # the vehicle's messages; LANDING_TARGET may come from any external system
             if msg.get_srcSystem() != self.target_system and mtype != "LANDING_TARGET":
                 continue
-            now = time.monotonic()
+            now = self.clock.now()
             with self._lock:
                 self._latest[mtype] = (msg, now)
                 if mtype == "COMMAND_ACK":
@@ -240,7 +262,7 @@ class MavlinkLink:
             item = self._latest.get(mtype)
         if item is None:
             return None, float("inf")
-        return item[0], time.monotonic() - item[1]
+        return item[0], self.clock.now() - item[1]
 
     @property
     def armed(self) -> bool:
@@ -256,23 +278,24 @@ class MavlinkLink:
     def _command(self, command: int, *params: float, timeout_s: float = 3.0) -> int:
         """Send COMMAND_LONG and wait for its COMMAND_ACK; returns the MAV_RESULT."""
         p = list(params) + [0.0] * (7 - len(params))
-        t_sent = time.monotonic()
+        clock = self.clock
+        t_sent = clock.now()
         self.conn.mav.command_long_send(self.target_system, self.target_component, command, 0, *p)
         deadline = t_sent + timeout_s
-        while time.monotonic() < deadline:
+        while clock.now() < deadline:
             with self._lock:
                 for cmd, result, t in self._acks:
                     if cmd == command and t >= t_sent:
                         return result
-            time.sleep(0.01)
+            clock.sleep(0.01)
         raise LinkError(f"no COMMAND_ACK for command {command} from {self.port} within {timeout_s:g} s")
 
     def _wait(self, predicate: Callable[[], bool], timeout_s: float) -> bool:
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline:
+        deadline = self.clock.now() + timeout_s
+        while self.clock.now() < deadline:
             if predicate():
                 return True
-            time.sleep(0.02)
+            self.clock.sleep(0.02)
         return predicate()
 
     def set_mode(self, name: str, timeout_s: float = 3.0) -> None:

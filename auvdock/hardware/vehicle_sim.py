@@ -31,9 +31,11 @@ Clock
 Every time in the simulator is **simulated time** ``t`` (s, 0 at :meth:`VehicleSim.start`):
 the physics, the heartbeat, the stream intervals, the 3 s override lapse and the 3 s pilot
 input failsafe, like ArduSub SITL with ``SIM_SPEEDUP``.  ``t`` advances by ``1 / rate_hz``
-per physics step, paced to the wall clock times ``speed``; when the computer cannot keep up,
-the simulated clock slips (it never runs steps in a burst to catch up more than 0.25 s).
-``time_boot_ms`` / ``time_usec`` fields are ``t`` in ms / us.
+per physics step, paced to the simulator's :class:`auvdock.clock.Clock` times ``speed``.
+With the wall clock (the default, ``auvdock vehicle-sim``), when the computer cannot keep
+up, ``t`` slips (it never runs steps in a burst to catch up more than 0.25 s).  With a
+:class:`auvdock.clock.SimClock` shared with a ``fly`` session (tests), the two run in
+lockstep and never slip.  ``time_boot_ms`` / ``time_usec`` fields are ``t`` in ms / us.
 
 Messages sent
 -------------
@@ -56,10 +58,12 @@ Messages sent
     1500 cdegC (15 C water).
   - ``SCALED_IMU2`` and ``RAW_IMU`` (same values): accelerometer = body-frame specific force
     ``a_b - R^T g_n`` in mG (1 mG = 9.80665e-3 m/s^2), where ``a_b = nu_1_dot + nu_2 x nu_1``
-    is the acceleration of the body origin over ground expressed in {b} (from the truth
-    model's accelerations at the current state, thrust, flow and flow rate along the path)
-    and ``g_n = [0, 0, 9.80665]`` m/s^2; level and at rest it reads
-    (0, 0, -1000) mG.  Gyro = p, q, r in mrad/s; magnetometer 0.
+    is the acceleration of the body origin over ground expressed in {b}, with ``nu_1_dot``
+    the mean over the last physics step of the truth model's integration,
+    ``(nu_1(t) - nu_1(t - 1 / rate_hz)) rate_hz`` (an IMU's averaged sample; the model's
+    stepper is the only place the flow and its rate along the path enter), and
+    ``g_n = [0, 0, 9.80665]`` m/s^2; level and at rest it reads (0, 0, -1000) mG.
+    Gyro = p, q, r in mrad/s; magnetometer 0.
   - ``SERVO_OUTPUT_RAW``: servo1_raw..servo8_raw = motor PWM (us) =
     ``motor_pwm(mix((channels - 1500) / 400))`` when armed, 1500 when disarmed.
 
@@ -136,7 +140,7 @@ Test hooks
 ----------
 :meth:`VehicleSim.pause_telemetry` stops (and resumes) every outgoing message, HEARTBEAT and
 COMMAND_ACK included (a link lost downstream; incoming messages are still handled);
-:attr:`VehicleSim.received` logs every received message as ``(wall time s, type, source
+:attr:`VehicleSim.received` logs every received message as ``(clock.time() s, type, source
 system, fields dict)``; :attr:`VehicleSim.events` lists :class:`SimEvent` (arm, disarm, mode,
 failsafe); :attr:`~VehicleSim.armed`, :attr:`~VehicleSim.mode`, :attr:`~VehicleSim.state`,
 :attr:`~VehicleSim.t`, :attr:`~VehicleSim.thrust`, :attr:`~VehicleSim.channels` read the
@@ -148,18 +152,18 @@ from __future__ import annotations
 import math
 import select
 import threading
-import time
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import casadi as ca
 import numpy as np
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
+from ..clock import Clock, wall_clock
+from ..geometry import rotation_zyx, wrap_angle
 from ..mission import Mission, load_mission
 from ..vehicle.thrusters import PWM_MAX_US, PWM_MIN_US, PWM_NEUTRAL_US
 from .ardusub import MODES, NEUTRAL_CHANNELS, PWM_PER_UNIT, mix, motor_pwm, thrust_from_channels
@@ -188,7 +192,7 @@ HEARTBEAT_PERIOD_S = 1.0
 OVERRIDE_TIMEOUT_S = 3.0  # ArduPilot RC_OVERRIDE_TIME
 PILOT_INPUT_TIMEOUT_S = 3.0  # ArduSub FS_PILOT_TIMEOUT
 DEFAULT_INTERVAL_US = 250_000  # interval 0 in SET_MESSAGE_INTERVAL: 4 Hz
-MAX_LAG_S = 0.25  # wall-clock lag after which the simulated clock slips instead of catching up
+MAX_LAG_S = 0.25  # lag behind the clock after which simulated time slips instead of catching up
 
 #: Streams a GCS can request with MAV_CMD_SET_MESSAGE_INTERVAL: message name -> message id.
 STREAMS: dict[str, int] = {
@@ -208,7 +212,8 @@ _INT16_MAX = 32767
 class SimEvent:
     """Something the vehicle did: ``kind`` is "arm", "disarm", "mode" or "failsafe".
 
-    ``wall_time`` is ``time.time()`` (s), ``t`` the simulated time (s), ``detail`` free text
+    ``wall_time`` is the clock's ``time()`` (s since the epoch; ``time.time()`` on the wall
+    clock), ``t`` the simulated time (s), ``detail`` free text
     (e.g. "gcs command", "pilot input failsafe", "MANUAL -> ALT_HOLD").
     """
 
@@ -261,10 +266,6 @@ def channels_from_manual_control(x: int, y: int, z: int, r: int, gain: float = 0
     )
 
 
-def _wrap(a: float) -> float:
-    return (a + math.pi) % (2 * math.pi) - math.pi
-
-
 def _i16(v: float) -> int:
     return int(np.clip(round(v), -32768, 32767))
 
@@ -298,6 +299,9 @@ class VehicleSim:
         Floor the depth at 0 m (a crude free surface; the truth model has none).
     received_maxlen : int
         Most entries kept in :attr:`received` (oldest dropped first).
+    clock : Clock, optional
+        What the simulator paces itself on (default the wall clock; a
+        :class:`auvdock.clock.SimClock` to run in lockstep with a fly session).
     """
 
     def __init__(
@@ -315,6 +319,7 @@ class VehicleSim:
         substeps: int | None = None,
         surface: bool = True,
         received_maxlen: int = 100_000,
+        clock: Clock | None = None,
     ) -> None:
         if not isinstance(mission, Mission):
             mission = load_mission(mission)
@@ -330,18 +335,17 @@ class VehicleSim:
         self.refuse_arm = bool(refuse_arm)
         self.noise = bool(noise)
         self.surface = bool(surface)
+        self.clock: Clock = wall_clock if clock is None else clock
 
         self.vehicle = mission.build_vehicle()
         self.flow = mission.build_flow()
         n_sub = mission.simulation.substeps if substeps is None else int(substeps)
         self._step_fn = self.vehicle.stepper(self.dt, n_sub, self.flow)
-        self._rot_fn = self.vehicle.model.function("rotation")
-        self._accel_fn = self._build_accel()
         self._rng = np.random.default_rng(mission.seed if seed is None else seed)
         self._sensors = mission.sensors
 
         self._lock = threading.RLock()
-        self._stop_event = threading.Event()
+        self._stop_event = self.clock.event()
         self._thread: threading.Thread | None = None
         self._conn: Any = None
         self._started = False
@@ -349,6 +353,7 @@ class VehicleSim:
         self._parser = self._new_parser()  # incoming UDP datagrams
 
         self._x = mission.start_state().astype(float)
+        self._nu1_dot = np.zeros(3)  # mean d(nu_1)/dt over the last physics step
         self._k = 0  # physics steps done; t = k dt
         self._target_dock: Any | None = None
         self._target_period = 0.1
@@ -414,7 +419,7 @@ class VehicleSim:
 
     @property
     def received(self) -> list[tuple[float, str, int, dict[str, Any]]]:
-        """Every received message: (wall time ``time.time()`` s, type, source system, fields)."""
+        """Every received message: (``clock.time()`` s, type, source system, fields)."""
         with self._lock:
             return list(self._received)
 
@@ -476,18 +481,18 @@ class VehicleSim:
         conn.mav.robust_parsing = True
         conn.WIRE_PROTOCOL_VERSION = "2.0"
         conn.first_byte = False
+        self.clock.attach(conn)
         self._conn = conn
         with self._lock:
             self._send_telemetry()  # the first HEARTBEAT, at t = 0 (binds a udpout socket)
-        self._thread = threading.Thread(target=self._run, name="VehicleSim", daemon=True)
-        self._thread.start()
+        self._thread = self.clock.start_thread(self._run, name="VehicleSim")
         return self
 
     def stop(self) -> None:
         """Stop the simulator thread, wait for it and close the connection (idempotent)."""
         self._stop_event.set()
         if self._thread is not None and self._thread is not threading.current_thread():
-            self._thread.join(timeout=5.0)
+            self.clock.join(self._thread, timeout=5.0)
         if self._conn is not None:
             try:
                 self._conn.close()
@@ -504,7 +509,7 @@ class VehicleSim:
             self.start()
         try:
             while self._thread is not None and self._thread.is_alive():
-                self._thread.join(0.2)
+                self.clock.join(self._thread, 0.2)
         except KeyboardInterrupt:
             pass
         finally:
@@ -519,23 +524,10 @@ class VehicleSim:
         self.stop()
 
     # --- model pieces ------------------------------------------------------------------------
-    def _build_accel(self) -> ca.Function:
-        """(x[12], u[8], t) -> nu_dot[6]: the truth model's accelerations with the flow and its rate."""
-        model = self.vehicle.model
-        x = ca.SX.sym("x", 12)
-        u = ca.SX.sym("u", 8)
-        t = ca.SX.sym("t")
-        p = ca.SX.sym("p", 3)
-        tt = ca.SX.sym("tt")
-        v = self.flow.symbolic(p, tt)
-        field = ca.Function("field", [p, tt], [v, ca.jacobian(v, p), ca.jacobian(v, tt)])
-        vc, dv_dp, dv_dt = field(x[0:3], t)
-        p_dot = ca.mtimes(model.rotation(x[0:6]), x[6:9])
-        nu_dot, _ = model.accelerations(x, model.wrench(u), vc, dv_dt + ca.mtimes(dv_dp, p_dot))
-        return ca.Function("sim_accel", [x, u, t], [nu_dot])
-
-    def _rotation(self, x: np.ndarray) -> np.ndarray:
-        return np.asarray(self._rot_fn(x[3:6]))
+    @staticmethod
+    def _rotation(x: np.ndarray) -> np.ndarray:
+        """R(Theta) of a state, {b} -> {n}."""
+        return rotation_zyx(float(x[3]), float(x[4]), float(x[5]))
 
     def _channels_now(self) -> np.ndarray:
         t = self._k * self.dt
@@ -548,35 +540,36 @@ class VehicleSim:
 
     # --- main loop ---------------------------------------------------------------------------
     def _run(self) -> None:
+        clock = self.clock
         try:
-            next_wall = time.monotonic()
+            next_t = clock.now()
             period = self.dt / self.speed
             while not self._stop_event.is_set():
                 self._receive_all()
                 with self._lock:
                     self._physics_step()
                     self._send_telemetry()
-                next_wall += period
-                self._wait_until(next_wall)
-                lag = time.monotonic() - next_wall
-                if lag > MAX_LAG_S:
-                    next_wall = time.monotonic()
+                next_t += period
+                self._wait_until(next_t)
+                if clock.now() - next_t > MAX_LAG_S:
+                    next_t = clock.now()
         except BaseException as e:  # keep it for run_forever; the thread must not die silently
             self._error = e
             self._stop_event.set()
 
-    def _wait_until(self, wall: float) -> None:
-        """Sleep until ``wall`` (monotonic s), handling messages as they arrive."""
-        fd = getattr(self._conn, "fd", None)
+    def _wait_until(self, when: float) -> None:
+        """Wait until ``when`` (the clock's time, s), handling messages as they arrive."""
+        clock = self.clock
+        conn = self._conn
         while not self._stop_event.is_set():
-            delay = wall - time.monotonic()
+            delay = when - clock.now()
             if delay <= 0:
                 return
-            if fd is None:
+            if conn is None or getattr(conn, "fd", None) is None:
                 self._stop_event.wait(delay)
                 return
             try:
-                ready, _, _ = select.select([fd], [], [], min(delay, 0.05))
+                ready = clock.wait_readable(conn, min(delay, 0.05))
             except (OSError, ValueError):
                 self._stop_event.wait(delay)
                 return
@@ -659,6 +652,7 @@ class VehicleSim:
             if v_ned[2] < 0.0:
                 v_ned[2] = 0.0
                 x_new[6:9] = R.T @ v_ned
+        self._nu1_dot = (x_new[6:9] - self._x[6:9]) / self.dt
         self._x = x_new
         self._k += 1
 
@@ -684,7 +678,7 @@ class VehicleSim:
         except Exception:  # a message pymavlink cannot render
             fields = {}
         src = msg.get_srcSystem()
-        self._received.append((time.time(), mtype, src, fields))
+        self._received.append((self.clock.time(), mtype, src, fields))
         handler: Callable[[Any], None] | None = {
             "COMMAND_LONG": self._on_command,
             "COMMAND_INT": self._on_command,
@@ -795,7 +789,7 @@ class VehicleSim:
         return M.MAV_RESULT_ACCEPTED
 
     def _event(self, kind: str, detail: str) -> None:
-        self._events.append(SimEvent(time.time(), self._k * self.dt, kind, detail))
+        self._events.append(SimEvent(self.clock.time(), self._k * self.dt, kind, detail))
 
     # --- outgoing ----------------------------------------------------------------------------
     def _send(self, fn: Callable[..., None], *args: Any, **kwargs: Any) -> None:
@@ -862,7 +856,7 @@ class VehicleSim:
     def _send_landing_target(self, t: float) -> None:
         x = self._x
         p = np.asarray(self._target_dock.position(t), dtype=float)
-        R = self._rotation(x)  # {b} -> {n}, from the one vehicle model
+        R = self._rotation(x)  # {b} -> {n}
         rel = R.T @ (p - x[0:3])
         self._send(
             self._conn.mav.landing_target_send,
@@ -911,9 +905,9 @@ class VehicleSim:
         self._send(
             self._conn.mav.attitude_send,
             self._time_boot_ms(),
-            _wrap(float(att[0])),
-            _wrap(float(att[1])),
-            _wrap(float(att[2])),
+            wrap_angle(float(att[0])),
+            wrap_angle(float(att[1])),
+            wrap_angle(float(att[2])),
             float(w[0]),
             float(w[1]),
             float(w[2]),
@@ -936,11 +930,9 @@ class VehicleSim:
         )
 
     def _imu(self) -> tuple[np.ndarray, np.ndarray]:
-        """(specific force in {b} m/s^2, body rates rad/s) of the current state and thrust."""
+        """(specific force in {b} m/s^2, body rates rad/s): the last physics step's mean acceleration."""
         x = self._x
-        t = self._k * self.dt
-        nu_dot = np.asarray(self._accel_fn(x, self._thrust, t)).ravel()
-        a_b = nu_dot[0:3] + np.cross(x[9:12], x[6:9])
+        a_b = self._nu1_dot + np.cross(x[9:12], x[6:9])
         R = self._rotation(x)
         if self.surface and x[2] <= 0.0:
             a_n = R @ a_b
