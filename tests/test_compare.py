@@ -373,3 +373,17 @@ def test_report_on_a_run_file_exits_2(tmp_path) -> None:
     assert res.stderr.strip() == (
         f"error: {p}: not an auvdock campaign or sweep file (written by auvdock compare or auvdock sweep)"
     )
+
+
+def test_report_on_an_old_campaign_file_exits_2(tmp_path) -> None:
+    p = tmp_path / "campaign.h5"
+    with h5py.File(p, "w") as f:
+        f.attrs["format"] = "auvdock-campaign"
+        f.attrs["format_version"] = 1
+        f.create_dataset("campaign_table", data=np.zeros(1, dtype=[("case", "S8")]))
+    res = runner.invoke(app, ["report", str(p)])
+    assert res.exit_code == 2
+    assert res.stderr.strip() == (
+        f"error: {p}: an auvdock results file of format version 1; this auvdock reads version 2 "
+        "(run the campaign again)"
+    )

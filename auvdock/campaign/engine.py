@@ -148,6 +148,7 @@ def run_plan(
             except BaseException:
                 ex.close(kill=True)
                 raise
+        if ex is not None:
             ex.close()
     finally:
         store.close(time.perf_counter() - t0)

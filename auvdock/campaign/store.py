@@ -326,6 +326,12 @@ def read_results(path: str | Path, kind: str | None = None) -> tuple[list[dict[s
     }[kind]
     f, attrs = open_format(path, FORMAT, what)
     with f:
+        version = int(attrs.get("format_version", 0))
+        if version != FORMAT_VERSION or TABLE not in f:
+            raise ValueError(
+                f"{path}: an auvdock results file of format version {version}; this auvdock reads version "
+                f"{FORMAT_VERSION} (run the campaign again)"
+            )
         if kind is not None and attrs.get("kind") != kind:
             raise ValueError(f"{path}: not an auvdock {what}")
         ds = f[TABLE]
