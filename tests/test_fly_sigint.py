@@ -78,7 +78,7 @@ def test_sigint_at_random_moments_exits_130_cleanly(tmp_path) -> None:
     mission = load_mission(TANK)
     results: list[dict] = []
     attempt = 0
-    with ThreadPoolExecutor(max_workers=3) as pool:  # three processes at a time
+    with ThreadPoolExecutor(max_workers=N_MOMENTS) as pool:  # all at once
         while sum(r["sent"] for r in results) < N_MOMENTS and attempt < 3 * N_MOMENTS:
             jobs = []
             for _ in range(N_MOMENTS - sum(r["sent"] for r in results)):

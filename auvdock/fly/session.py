@@ -209,12 +209,14 @@ class FlySession:
             # the one ending; a KeyboardInterrupt can only come before its SIGINT latch is in
             # place, and then nothing of it has run yet: run it again
             result: FlyResult | None = None
-            while result is None:
-                try:
-                    result = self._finish(ending)
-                except KeyboardInterrupt:
-                    ending = _Ending(*_INTERRUPTED)
-            self._sigint.restore()
+            try:
+                while result is None:
+                    try:
+                        result = self._finish(ending)
+                    except KeyboardInterrupt:
+                        ending = _Ending(*_INTERRUPTED)
+            finally:
+                self._sigint.restore()
         if self._sigint.hit and result.reason != "interrupted":  # Ctrl-C during the ending
             result = dataclasses.replace(
                 result, reason="interrupted", message=f"interrupted (Ctrl-C): {result.message}"
