@@ -125,16 +125,23 @@ def run_plan(
         if on_event is not None:
             on_event(kind, spec, info)
 
-    store = ResultsStore(path, plan, resume=resume, force=force)
     ex = executor
+    if ex is None and scheduler:  # connect first: an unreachable scheduler leaves no file behind
+        ex = DaskExecutor(scheduler, runner=runner)
+    try:
+        store = ResultsStore(path, plan, resume=resume, force=force)
+    except BaseException:
+        if ex is not None:
+            ex.close()
+        raise
     ran: list[str] = []
     try:
         todo = [s for s in plan.specs if not store.done(s)]
         todo_ids = {s.run_id for s in todo}
         skipped = [s.run_id for s in plan.specs if s.run_id not in todo_ids]
         if todo and ex is None:
-            ex = make_executor(workers, scheduler, len(todo), runner=runner, log_dir=path.parent / "logs")
-        desc = ex.description if ex is not None else "none (nothing to run)"
+            ex = make_executor(workers, None, len(todo), runner=runner, log_dir=path.parent / "logs")
+        desc = ex.description if todo and ex is not None else "none (nothing to run)"
         store.begin(
             command_line=command_line,
             executor=desc,
@@ -143,11 +150,12 @@ def run_plan(
         )
         emit("plan", None, {"total": len(plan.specs), "skipped": len(skipped), "todo": len(todo)})
         if todo:
-            try:
-                _drive(ex, todo, plan, store, emit, retries, ran)
-            except BaseException:
-                ex.close(kill=True)
-                raise
+            _drive(ex, todo, plan, store, emit, retries, ran)
+    except BaseException:  # Ctrl-C included: the workers are stopped at once
+        if ex is not None:
+            ex.close(kill=True)
+        raise
+    else:
         if ex is not None:
             ex.close()
     finally:
