@@ -15,7 +15,7 @@ import typer
 
 from ..clock import Clock, wall_clock
 from ..mission import CONTROLLER_TYPES, MissionError
-from .app import app, console, err_console, fail_input, load_or_exit
+from .app import app, console, err_console, exit_interrupted, fail_input, load_or_exit
 
 #: The clock ``fly`` and ``vehicle-sim`` wait and pace on.
 clock: Clock = wall_clock
@@ -77,6 +77,9 @@ def fly(
         link.close()
         fail_input(str(e))
         raise AssertionError("unreachable") from None
+    except KeyboardInterrupt:
+        link.close()
+        exit_interrupted("interrupted: before connecting to the vehicle; nothing was sent")
     last = [-1e9]
 
     def on_step(t: float, dist: float, status: str) -> None:
@@ -95,6 +98,9 @@ def fly(
         console.print(f"[green]{result.message}[/green]")
     elif result.reason == "timeout":
         err_console.print(f"not docked: {result.message}", markup=False, highlight=False)
+    elif result.reason == "interrupted":
+        where = f"; results in {result.results_path}" if result.results_path is not None else ""
+        exit_interrupted(f"{result.message}{where}")  # "interrupted (Ctrl-C)...; results in ..."
     else:
         err_console.print(f"{result.reason}: {result.message}", markup=False, highlight=False)
     raise typer.Exit(code=result.exit_code)

@@ -44,6 +44,7 @@ from ..dock import HeaveDock, TrackedDock
 from ..geometry import rotation_zyx
 from ..hardware.ardusub import NEUTRAL_CHANNELS, channels_for_thrust
 from ..hardware.link import LinkError, MavlinkLink
+from ..interrupts import SigintDeferred
 from ..mission import Mission, MissionError
 from .camera import CAMERA_SERIES, CameraOpenError, CameraTracking
 from .record import FlyRecorder
@@ -161,6 +162,25 @@ class FlySession:
         self.out = Path(out)
         self.timeout_s = mission.docking.timeout_s if timeout_s is None else float(timeout_s)
         self.connect_timeout_s = connect_timeout_s
+        # built whole: CasADi's argument type checks clear a KeyboardInterrupt raised in them, so
+        # a Ctrl-C while the model and the controller are built is held back and raised after
+        with SigintDeferred():
+            self._build(mission, controller)
+        self.dt = self.autopilot.dt
+        self.events: list[tuple[float, str]] = []
+        self.camera: CameraTracking | None = None
+        self._t0 = self.clock.now()
+        self._frame: MissionFrame | None = None
+        self._rec: FlyRecorder | None = None
+        self._we_armed = False
+        self._last_target: int | None = None
+        self._t_end = 0.0
+        self._progress: Any = None
+        self._sigint = _SigintLatch()
+        self.link.on_event = self._event
+
+    def _build(self, mission: Mission, controller: str | None) -> None:
+        """The vehicle model, the dock (model or filter), the flow and the controller step."""
         self.vehicle = mission.build_vehicle()
         if self.vehicle.n_thrusters != N_THRUSTERS:
             raise MissionError(
@@ -178,18 +198,6 @@ class FlySession:
             mission.build_camera()  # a missing or bad camera file is a mission error, before connecting
         self.flow = mission.build_flow()
         self.autopilot = build_autopilot(mission, self.vehicle, self.dock, controller)
-        self.dt = self.autopilot.dt
-        self.events: list[tuple[float, str]] = []
-        self.camera: CameraTracking | None = None
-        self._t0 = self.clock.now()
-        self._frame: MissionFrame | None = None
-        self._rec: FlyRecorder | None = None
-        self._we_armed = False
-        self._last_target: int | None = None
-        self._t_end = 0.0
-        self._progress: Any = None
-        self._sigint = _SigintLatch()
-        self.link.on_event = self._event
 
     # ------------------------------------------------------------------------------------
     def run(self, progress=None) -> FlyResult:
@@ -370,7 +378,8 @@ class FlySession:
         v_c = self.flow.velocity(x[0:3], t)
         imu, age = self.link.latest("SCALED_IMU2")
         sensors, f_b = sensors_from_telemetry(x, v_c, imu if imu is not None and age < 0.5 else None)
-        out = self.autopilot.step(Measurement(t=t, state=x, flow_ned=v_c, sensors=sensors))
+        with SigintDeferred():  # a whole controller step (CasADi may swallow a KeyboardInterrupt)
+            out = self.autopilot.step(Measurement(t=t, state=x, flow_ned=v_c, sensors=sensors))
         channels = channels_for_thrust(out.thrust, self.vehicle.allocation)
         if self.arm_vehicle:
             self.link.send_override(channels)

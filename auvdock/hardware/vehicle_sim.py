@@ -164,6 +164,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 from ..clock import Clock, wall_clock
 from ..geometry import rotation_zyx, wrap_angle
+from ..interrupts import SigintDeferred
 from ..mission import Mission, load_mission
 from ..vehicle.thrusters import PWM_MAX_US, PWM_MIN_US, PWM_NEUTRAL_US
 from .ardusub import MODES, NEUTRAL_CHANNELS, PWM_PER_UNIT, mix, motor_pwm, thrust_from_channels
@@ -337,10 +338,12 @@ class VehicleSim:
         self.surface = bool(surface)
         self.clock: Clock = wall_clock if clock is None else clock
 
-        self.vehicle = mission.build_vehicle()
-        self.flow = mission.build_flow()
         n_sub = mission.simulation.substeps if substeps is None else int(substeps)
-        self._step_fn = self.vehicle.stepper(self.dt, n_sub, self.flow)
+        # built whole: CasADi's argument type checks clear a KeyboardInterrupt raised in them
+        with SigintDeferred():
+            self.vehicle = mission.build_vehicle()
+            self.flow = mission.build_flow()
+            self._step_fn = self.vehicle.stepper(self.dt, n_sub, self.flow)
         self._rng = np.random.default_rng(mission.seed if seed is None else seed)
         self._sensors = mission.sensors
 
