@@ -16,6 +16,7 @@ from .controllers.registry import CONTROLLERS
 from .controllers.settings import MPCSettings
 from .dock import HeaveDock
 from .estimator import EstimatorSettings
+from .interrupts import SigintDeferred
 from .mission import Mission
 from .sensors import SensorSettings
 from .vehicle import Vehicle
@@ -54,7 +55,9 @@ class Autopilot:
         self.settings = settings
         self.vehicle = vehicle
         self.dock = dock
-        self.controller: Controller = build_controller(settings, vehicle, dock, estimator, sensors)
+        # built whole: CasADi's argument checks clear a KeyboardInterrupt raised inside them
+        with SigintDeferred():
+            self.controller: Controller = build_controller(settings, vehicle, dock, estimator, sensors)
         self.name = self.controller.name
         self.dt = settings.dt_s
         self.solver = resolve_solver(settings.solver.name, self.name)

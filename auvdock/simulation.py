@@ -166,7 +166,8 @@ def simulate(
     dt = ap.dt
     timeout = mission.docking.timeout_s if timeout_s is None else float(timeout_s)
     tol = mission.docking.tolerance_m
-    truth_step = vehicle.stepper(dt, mission.simulation.substeps, flow)
+    with SigintDeferred():  # CasADi would swallow a Ctrl-C landing in the construction
+        truth_step = vehicle.stepper(dt, mission.simulation.substeps, flow)
     rotation = vehicle.model.function("rotation")
 
     def rot(angles: np.ndarray) -> np.ndarray:

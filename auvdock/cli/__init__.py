@@ -66,18 +66,25 @@ def main(argv: list[str] | None = None) -> None:
         rc = app(args=argv, standalone_mode=False)
     except _cx.NoArgsIsHelpError as e:
         print(e.ctx.get_help() if e.ctx is not None else str(e))
-        sys.exit(0)
+        rc = 0
     except _cx.UsageError as e:  # a bad option or argument: one line, exit 2
         _one_line(_usage_line(e))
-        sys.exit(2)
+        rc = 2
     except _cx.ClickException as e:
         _one_line(f"error: {e.format_message()}")
-        sys.exit(e.exit_code)
+        rc = e.exit_code
     except (typer.Abort, KeyboardInterrupt):
         rc = 130
     if rc == 130 and not interrupt_reported():  # Typer turns Ctrl-C into exit 130, silently
         err_console.print("interrupted", markup=False, highlight=False)
+    _ignore_late_sigint()
     sys.exit(rc if isinstance(rc, int) else 0)
+
+
+def _ignore_late_sigint() -> None:
+    """The command has ended and said so: a Ctrl-C now (exiting) changes nothing and prints nothing."""
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _one_line(text: str) -> None:
