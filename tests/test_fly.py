@@ -66,6 +66,9 @@ def test_fly_arm_docks_in_the_tank(loop, tmp_path) -> None:
     out = r.outcome()
     assert out["docked"] and out["reason"] == "docked"
     assert out["closest_approach_m"] <= 0.05
+    # the state in which docking was declared is the file's last row, within the tolerance
+    assert r.distance_m[-1] == r.distance_m.min() <= 0.05
+    assert r.status_names[int(r.solver_status[-1])] == "no_step" and r.control_rows()[:-1].all()
     assert 15.0 < out["time_to_dock_s"] < 40.0  # simulated s (29.85 s with this mission and code)
     assert r.extras["channels_us"].shape[1] == 6
     assert np.all(r.extras["telemetry_age_s"] <= 0.04 + 1e-9)  # 25 Hz telemetry, read when sent

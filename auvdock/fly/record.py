@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from ..controllers.status import STATUS_FALLBACK_ZERO, STATUS_NAMES
+from ..controllers.status import STATUS_FALLBACK_ZERO, STATUS_NAMES, STATUS_NO_STEP
 from ..geometry import rotation_zyx
 from ..interrupts import SigintDeferred
 from ..results import RunWriter
@@ -111,17 +111,25 @@ class FlyRecorder:
         self.statuses.append(out.status)
 
     def held(
-        self, t: float, x: np.ndarray, *, channels: np.ndarray, telemetry: dict[str, Any], series: dict
+        self,
+        t: float,
+        x: np.ndarray,
+        *,
+        channels: np.ndarray,
+        telemetry: dict[str, Any],
+        series: dict,
+        status: int = STATUS_FALLBACK_ZERO,
     ) -> None:
-        """A step held at neutral thrust (no dock to steer to)."""
+        """A step held at neutral thrust (no dock to steer to), or with ``status`` no_step the
+        final state of the session (the one in which docking is declared), as ``sim`` writes it."""
         nan_series = {name: np.full(shape, np.nan) for name, shape in self.autopilot_series.items()}
         zero = np.zeros(self.vehicle.n_thrusters)
         self._row(
             t,
             x,
             zero,
-            STATUS_FALLBACK_ZERO,
-            0.0,
+            status,
+            0.0 if status != STATUS_NO_STEP else float("nan"),
             channels,
             np.full(3, np.nan),
             telemetry,

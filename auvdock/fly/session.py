@@ -39,7 +39,7 @@ from pymavlink import mavutil
 from ..autopilot import build_autopilot
 from ..clock import Clock
 from ..controllers import Measurement
-from ..controllers.status import STATUS_NAMES
+from ..controllers.status import STATUS_NAMES, STATUS_NO_STEP
 from ..dock import HeaveDock, TrackedDock
 from ..geometry import rotation_zyx
 from ..hardware.ardusub import NEUTRAL_CHANNELS, channels_for_thrust
@@ -369,6 +369,14 @@ class FlySession:
         dist = float(np.linalg.norm(x[0:3] - self.dock.position(t)))
         if dist <= self.mission.docking.tolerance_m:
             self._rec.distances.append(dist)
+            self._rec.held(  # the state in which docking is declared, as sim records it
+                t,
+                x,
+                channels=NEUTRAL_CHANNELS,
+                telemetry=self._telemetry(),
+                series=camera_series,
+                status=STATUS_NO_STEP,
+            )
             return _Ending("docked", f"docked at t = {t:.2f} s", docked=True, contact=x.copy(), t_end=t)
         self._control(t, x, dist, camera_series)
         return None
