@@ -500,7 +500,10 @@ def test_sweep_on_a_dask_cluster(tmp_path: Path) -> None:
 
     path = _write(tmp_path, "dask", SMALL.format(name="dask").replace("seeds: 2", "seeds: 1"))
     faults = functools.partial(inject, kill_always=["p0001-naive-s0-m0"], fail=["p0000-optimized-s0-m0"])
-    with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+    # no retries inside Dask (the engine retries once), and one task at a time per worker, so that
+    # a dying worker holds only the run that killed it
+    config = {"distributed.scheduler.allowed-failures": 0, "distributed.scheduler.worker-saturation": 1.0}
+    with dask.config.set(config):
         with LocalCluster(
             n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0", silence_logs=50
         ) as cluster:

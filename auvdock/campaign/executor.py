@@ -17,7 +17,8 @@ as :class:`Event` s; neither writes results nor decides about retries (the engin
     Each run is one task on a running Dask cluster (``tcp://host:8786``); the workers need
     auvdock installed.  A task whose worker died as often as the scheduler allows
     (``distributed.scheduler.allowed-failures``, Dask's default 3) comes back as
-    ``KilledWorker`` and is reported ``"lost"``.  Dask cannot stop a running task: after
+    ``KilledWorker`` and is reported ``"lost"``, as is a task whose result was lost before
+    it was fetched (never dropped).  Dask cannot stop a running task: after
     :meth:`close` with ``kill=True`` the cluster's workers finish their current run and
     drop it.
 
@@ -298,6 +299,8 @@ class DaskExecutor:
                     events.append(Event("lost", rid, f"its Dask worker died ({exc})"))
                 else:
                     events.append(Event("error", rid, f"{type(exc).__name__}: {exc}"))
+            else:  # cancelled or lost by the cluster (e.g. its worker died): never dropped silently
+                events.append(Event("lost", rid, f"its Dask task ended {fut.status}"))
             fut.release()
         return events
 
