@@ -221,3 +221,9 @@ def _drive(
                     row = empty_row(spec, plan.columns)
                     row["error"] = f"{ev.data}; given up after {n} attempts"
                     record(spec, row, None)
+    recorded = set(ran)
+    for spec in todo:  # a safety net: every run submitted ends with a row
+        if spec.run_id not in recorded:
+            row = empty_row(spec, plan.columns)
+            row["error"] = "no result came back from the executor"
+            record(spec, row, None)
