@@ -793,11 +793,3 @@ def _list_runs(f: h5py.File) -> list[str]:
     f.visititems(visit)
     return sorted(found)
 
-
-def __getattr__(name: str) -> Any:
-    """``STATUS_*`` names, formerly defined here: now :mod:`auvdock.controllers.status`."""
-    if name.startswith("STATUS_"):
-        from .controllers import status
-
-        return getattr(status, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -119,10 +119,10 @@ def vehicle_sim(
     speed: float = typer.Option(1.0, "--speed", min=0.01, help="Simulated seconds per wall-clock second."),
 ) -> None:
     """Run auvdock's 6-DOF simulator as an ArduSub MAVLink vehicle (for rehearsing and testing fly)."""
-    from ..campaign import default_missions_dir
+    from ..catalog import missions_dir
     from ..hardware.vehicle_sim import VehicleSim
 
-    path = mission if mission is not None else default_missions_dir() / "tank_0p6hz.yaml"
+    path = mission if mission is not None else missions_dir() / "tank_0p6hz.yaml"
     m = load_or_exit(path)
     console.print(
         f"[bold]vehicle-sim[/bold]: ArduSub-like BlueROV2 (sysid 1) on {port}, mission {m.name}, "

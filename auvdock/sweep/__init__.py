@@ -26,7 +26,8 @@ A *sweep file* names a base mission and what to vary around it::
 =============  ================================================================
 module         job
 =============  ================================================================
-``schema``     the sweep file's schema, :func:`load_sweep`, field-path checks
+``schema``     the sweep file's schema and field-path checks
+``load``       :func:`load_sweep`: read, validate and expand a sweep file
 ``expand``     points, derived and coupled fields, model-error draws -> the
                campaign plan (:func:`expand_sweep`, :func:`sweep_plan`)
 ``run``        :func:`run_sweep` on the campaign engine, :func:`read_sweep`
@@ -99,8 +100,9 @@ run is also kept as a run group ``/runs/<run id>`` (the layout of ``auvdock sim`
 from __future__ import annotations
 
 from .expand import expand_sweep, label_columns, sweep_plan
+from .load import load_sweep
 from .run import RESULTS_NAME, read_sweep, run_sweep
-from .schema import DERIVED_FIELDS, Sweep, SweepError, load_sweep
+from .schema import DERIVED_FIELDS, Sweep, SweepError
 
 __all__ = [
     "DERIVED_FIELDS",

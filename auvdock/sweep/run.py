@@ -10,7 +10,7 @@ from ..campaign.executor import Runner
 from ..campaign.store import read_results
 from ..campaign.worker import execute_run
 from .expand import sweep_plan
-from .schema import load_sweep
+from .load import load_sweep
 
 __all__ = ["RESULTS_NAME", "run_sweep", "read_sweep"]
 

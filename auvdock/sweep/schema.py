@@ -1,6 +1,6 @@
 """The sweep file: its schema, loading, and the checks of the mission fields it varies.
 
-See :mod:`auvdock.sweep` for the file format.  :func:`load_sweep` validates a sweep file
+See :mod:`auvdock.sweep` for the file format.  :func:`auvdock.sweep.load.load_sweep` validates a sweep file
 like a mission (:mod:`auvdock.schema`: strict keys, one-line errors) and raises
 :class:`SweepError` -- ``<file>: <field.path>: <problem>`` -- on any bad input: unknown
 keys, unknown mission fields (checked with :func:`auvdock.schema.field_at`, which knows the
@@ -16,11 +16,10 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import numpy as np
-from pydantic import Field, ValidationError, field_validator, model_validator
+from pydantic import Field, field_validator, model_validator
 
-from ..catalog import resolve
-from ..mission import CONTROLLER_TYPES, Mission, MissionError, load_mission, read_yaml_file
-from ..schema import Strict, field_at, first_error
+from ..mission import CONTROLLER_TYPES, Mission, MissionError
+from ..schema import Strict, field_at
 
 __all__ = [
     "DERIVED_FIELDS",
@@ -31,7 +30,6 @@ __all__ = [
     "ModelErrorSpec",
     "ReferenceSpec",
     "Sweep",
-    "load_sweep",
     "mission_field_problem",
 ]
 
@@ -251,50 +249,6 @@ class Sweep(Strict):
         return self.n_points * len(self.controllers) * self.seeds * max(1, self.model_error.n)
 
 
-def load_sweep(path: str | Path) -> Sweep:
-    """Read and validate a sweep file, its base mission and every expanded mission.
-
-    ``path`` is a file or the name of a shipped sweep (``current_speed``).  The base
-    mission is a file relative to the sweep file, or a shipped mission's name.
-
-    Raises
-    ------
-    SweepError
-        ``<file>: <field.path>: <problem>`` on a missing file, a YAML error, an unknown key,
-        an unknown mission field, a bad distribution, a missing or invalid base mission,
-        or the first expanded mission that does not validate.
-    """
-    from .expand import expand_sweep
-
-    p = resolve(path, "sweep")
-    data, text = read_yaml_file(p, SweepError)
-    if not isinstance(data, dict):
-        raise SweepError(p, "", "a sweep file must hold a YAML mapping (key: value pairs)")
-    try:
-        sweep = Sweep.model_validate(data)
-    except ValidationError as e:
-        raise SweepError(p, *first_error(Sweep, e)) from None
-    sweep._path = p
-    sweep._text = text
-    if sweep.name is None:
-        sweep.name = p.stem
-    base = Path(sweep.base)
-    if not base.is_absolute():
-        base = p.parent / base
-    if not base.is_file():
-        shipped = resolve(sweep.base)
-        if not shipped.is_file():
-            raise SweepError(p, "base", f"mission file not found: {base}")
-        base = shipped
-    try:
-        sweep._base = load_mission(base)
-    except MissionError as e:
-        raise SweepError(p, "base", str(e)) from None
-    _check_fields(sweep)
-    expand_sweep(sweep)  # every expanded mission validates, or the first bad one is reported
-    return sweep
-
-
 def mission_field_problem(path: str) -> str | None:
     """None if ``path`` is a mission field a sweep may vary, else the problem."""
     if path in _FIXED_BY_SWEEP:
@@ -312,7 +266,9 @@ def mission_field_problem(path: str) -> str | None:
     return problem
 
 
-def _check_fields(sweep: Sweep) -> None:
+def check_fields(sweep: Sweep) -> None:
+    """Every varied field is a mission field a sweep may vary; model-error keys are numeric
+    vehicle parameters.  SweepError naming the sweep field otherwise."""
     p = sweep._path or "<sweep>"
     for key in sweep.grid:
         problem = mission_field_problem(key)
