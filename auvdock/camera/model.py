@@ -28,6 +28,7 @@ import numpy as np
 import yaml
 
 from ..geometry import rotation_zyx
+from ..vehicle.state import POS
 
 __all__ = [
     "gray_image",
@@ -354,7 +355,7 @@ def camera_from_dock(
     R_nd = rotation_zyx(0.0, 0.0, float(dock_heading_rad))
     R_bc = mount.R_bc()
     R_cd = R_bc.T @ R_nb.T @ R_nd
-    t_cd = R_bc.T @ (R_nb.T @ (p_nd - eta[:3]) - mount.t_bc())
+    t_cd = R_bc.T @ (R_nb.T @ (p_nd - eta[POS]) - mount.t_bc())
     return R_cd, t_cd
 
 

@@ -25,6 +25,8 @@ from auvdock.camera.layout import MarkerLayout, aruco_dictionary
 from auvdock.camera.model import CameraModel, CameraMount, gray_image
 from auvdock.geometry import rotation_zyx, wrap_angle
 
+from ..vehicle.state import POS
+
 __all__ = [
     "Detection",
     "DockPose",
@@ -349,7 +351,7 @@ def relative_pose_truth(
         raise ValueError("eta: expected 6 numbers and dock_position_ned: 3 numbers")
     R_nb = rotation_zyx(*eta[3:])
     R_bd = R_nb.T @ rotation_zyx(0.0, 0.0, float(dock_heading_rad))
-    return R_nb.T @ (p_nd - eta[:3]), wrap_angle(_yaw_of(R_bd))
+    return R_nb.T @ (p_nd - eta[POS]), wrap_angle(_yaw_of(R_bd))
 
 
 # ---------------------------------------------------------------------------------------------------------

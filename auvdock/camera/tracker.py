@@ -40,6 +40,7 @@ import numpy as np
 from ..clock import Clock, wall_clock
 from ..dock import HeaveDock
 from ..geometry import rotation_zyx
+from ..vehicle.state import POS
 from .layout import MarkerLayout
 from .model import CameraModel, CameraMount, camera_from_dock
 from .pose import MarkerDetector, estimate_dock_pose
@@ -295,7 +296,7 @@ class DockTracker:
             return None
         p_b, yaw_rel, cov4 = pose.in_body(self.mount)
         R_nb = rotation_zyx(float(eta[3]), float(eta[4]), float(eta[5]))
-        p_ned = np.asarray(eta[0:3], dtype=float) + R_nb @ p_b
+        p_ned = np.asarray(eta[POS], dtype=float) + R_nb @ p_b
         cov_ned = R_nb @ cov4[0:3, 0:3] @ R_nb.T
         return DockFix(
             t=t,

@@ -18,6 +18,7 @@ import numpy as np
 from ..clock import Clock
 from ..dock import HeaveDock, TrackedDock
 from ..mission import Mission
+from ..vehicle.state import ETA
 
 __all__ = ["CAMERA_STATES", "CAMERA_SERIES", "CameraTracking", "CameraOpenError"]
 
@@ -133,7 +134,7 @@ class CameraTracking:
         if not self._pose_hist:
             return None
         _, t, x = self._pose_hist[-1]
-        return t, x[0:6]
+        return t, x[ETA]
 
     def pose_at(self, t_clock: float) -> tuple[float, np.ndarray] | None:
         """(mission time, pose) of the control step nearest to a clock instant."""

@@ -19,6 +19,7 @@ from ..geometry import rotation_zyx
 from ..interrupts import SigintDeferred
 from ..results import RunWriter
 from ..simulation import run_outcome
+from ..vehicle.state import POS
 
 __all__ = ["FlyRecorder", "TELEMETRY_SERIES"]
 
@@ -155,10 +156,10 @@ class FlyRecorder:
                 state=x,
                 thrust_N=thrust,
                 wrench=self.vehicle.allocation @ thrust,
-                flow_ned_m_s=self.flow.velocity(x[0:3], t),
+                flow_ned_m_s=self.flow.velocity(x[POS], t),
                 dock_position_m=p_dock,
                 dock_velocity_m_s=self.dock.velocity(t),
-                distance_m=float(np.linalg.norm(x[0:3] - p_dock)),
+                distance_m=float(np.linalg.norm(x[POS] - p_dock)),
                 solve_time_s=solve_time_s,
                 solver_status=status,
                 channels_us=channels,

@@ -46,6 +46,7 @@ from ..hardware.ardusub import NEUTRAL_CHANNELS, channels_for_thrust
 from ..hardware.link import LinkError, MavlinkLink
 from ..interrupts import SigintDeferred
 from ..mission import Mission, MissionError
+from ..vehicle.state import ATT, POS
 from .camera import CAMERA_SERIES, CameraOpenError, CameraTracking
 from .record import FlyRecorder
 from .telemetry import TELEMETRY_MESSAGES, MissionFrame, geofence_violation, sensors_from_telemetry
@@ -366,7 +367,7 @@ class FlySession:
                 return None
         if self.mission.dock.source == "mavlink":
             self._check_landing_target(t, x)
-        dist = float(np.linalg.norm(x[0:3] - self.dock.position(t)))
+        dist = float(np.linalg.norm(x[POS] - self.dock.position(t)))
         if dist <= self.mission.docking.tolerance_m:
             self._rec.distances.append(dist)
             self._rec.held(  # the state in which docking is declared, as sim records it
@@ -383,7 +384,7 @@ class FlySession:
 
     def _control(self, t: float, x: np.ndarray, dist: float, camera_series: dict[str, np.ndarray]) -> None:
         """The controller step on the telemetry, its thrust as RC overrides, one results row."""
-        v_c = self.flow.velocity(x[0:3], t)
+        v_c = self.flow.velocity(x[POS], t)
         imu, age = self.link.latest("SCALED_IMU2")
         sensors, f_b = sensors_from_telemetry(x, v_c, imu if imu is not None and age < 0.5 else None)
         with SigintDeferred():  # a whole controller step (CasADi may swallow a KeyboardInterrupt)
@@ -395,7 +396,7 @@ class FlySession:
             self.link.send_neutral()
         series = dict(out.series)
         if "flow_body_true_m_s" in self.autopilot.extra_series:
-            series["flow_body_true_m_s"] = _rotation(x[3:6]).T @ v_c
+            series["flow_body_true_m_s"] = _rotation(x[ATT]).T @ v_c
         self._rec.flown(
             t,
             x,
@@ -460,7 +461,7 @@ class FlySession:
         self._last_target = id(lt)
         rel = np.array([lt.x, lt.y, lt.z])
         if lt.frame == mavutil.mavlink.MAV_FRAME_BODY_FRD:
-            p = x[0:3] + _rotation(x[3:6]) @ rel
+            p = x[POS] + _rotation(x[ATT]) @ rel
         elif lt.frame == mavutil.mavlink.MAV_FRAME_LOCAL_NED:
             p = self._frame.position(rel)
         else:

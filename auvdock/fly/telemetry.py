@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from ..geometry import Rz, rotation_zyx, wrap_angle
+from ..vehicle.state import ANG, ATT, ETA, LIN
 
 __all__ = ["G", "TELEMETRY_MESSAGES", "MissionFrame", "sensors_from_telemetry", "geofence_violation"]
 
@@ -86,18 +87,18 @@ def sensors_from_telemetry(
     (3,) m/s^2 in {b} (NaN without a fresh IMU message).  ``accel_m_s2`` is d(nu_1)/dt:
     the accelerometer's specific force plus gravity in {b}, minus ``nu_2 x nu_1``.
     """
-    R = _rotation(x[3:6])
+    R = _rotation(x[ATT])
     sensors: dict[str, np.ndarray] = {
-        "pose": x[0:6].copy(),
-        "gyro_rad_s": x[9:12].copy(),
-        "depth_rate_m_s": np.asarray(float(R[2] @ x[6:9])),
-        "relative_velocity_m_s": x[6:9] - R.T @ flow_ned,
+        "pose": x[ETA].copy(),
+        "gyro_rad_s": x[ANG].copy(),
+        "depth_rate_m_s": np.asarray(float(R[2] @ x[LIN])),
+        "relative_velocity_m_s": x[LIN] - R.T @ flow_ned,
     }
     f_b = np.full(3, np.nan)
     if imu is not None:
         f_b = np.array([imu.xacc, imu.yacc, imu.zacc]) * G / 1000.0  # mG -> m/s^2
         a_b = f_b + R.T @ np.array([0.0, 0.0, G])  # acceleration over ground in {b}
-        sensors["accel_m_s2"] = a_b - np.cross(x[9:12], x[6:9])
+        sensors["accel_m_s2"] = a_b - np.cross(x[ANG], x[LIN])
     return sensors, f_b
 
 

@@ -166,6 +166,7 @@ from ..clock import Clock, wall_clock
 from ..geometry import rotation_zyx, wrap_angle
 from ..interrupts import SigintDeferred
 from ..mission import Mission, load_mission
+from ..vehicle.state import ANG, ATT, LIN, POS
 from ..vehicle.thrusters import PWM_MAX_US, PWM_MIN_US, PWM_NEUTRAL_US
 from .ardusub import MODES, NEUTRAL_CHANNELS, PWM_PER_UNIT, mix, motor_pwm, thrust_from_channels
 
@@ -860,7 +861,7 @@ class VehicleSim:
         x = self._x
         p = np.asarray(self._target_dock.position(t), dtype=float)
         R = self._rotation(x)  # {b} -> {n}
-        rel = R.T @ (p - x[0:3])
+        rel = R.T @ (p - x[POS])
         self._send(
             self._conn.mav.landing_target_send,
             int(t * 1e6),
@@ -903,8 +904,8 @@ class VehicleSim:
 
     def _send_attitude(self) -> None:
         x = self._x
-        att = x[3:6] + self._n(self._sensors.attitude_std_rad, 3)
-        w = x[9:12] + self._n(self._sensors.gyro_std_rad_s, 3)
+        att = x[ATT] + self._n(self._sensors.attitude_std_rad, 3)
+        w = x[ANG] + self._n(self._sensors.gyro_std_rad_s, 3)
         self._send(
             self._conn.mav.attitude_send,
             self._time_boot_ms(),
@@ -918,8 +919,8 @@ class VehicleSim:
 
     def _send_local_position_ned(self) -> None:
         x = self._x
-        p = x[0:3] + self._n(self._sensors.position_std_m, 3)
-        v = self._rotation(x) @ x[6:9] + self._n(self._sensors.relative_velocity_std_m_s, 3)
+        p = x[POS] + self._n(self._sensors.position_std_m, 3)
+        v = self._rotation(x) @ x[LIN] + self._n(self._sensors.relative_velocity_std_m_s, 3)
         self._send(self._conn.mav.local_position_ned_send, self._time_boot_ms(), *map(float, (*p, *v)))
 
     def _send_scaled_pressure2(self) -> None:
@@ -935,7 +936,7 @@ class VehicleSim:
     def _imu(self) -> tuple[np.ndarray, np.ndarray]:
         """(specific force in {b} m/s^2, body rates rad/s): the last physics step's mean acceleration."""
         x = self._x
-        a_b = self._nu1_dot + np.cross(x[9:12], x[6:9])
+        a_b = self._nu1_dot + np.cross(x[ANG], x[LIN])
         R = self._rotation(x)
         if self.surface and x[2] <= 0.0:
             a_n = R @ a_b
@@ -944,7 +945,7 @@ class VehicleSim:
                 a_b = R.T @ a_n
         f_b = a_b - R.T @ np.array([0.0, 0.0, GRAVITY])
         f_b = f_b + self._n(self._sensors.accel_std_m_s2, 3)
-        w = x[9:12] + self._n(self._sensors.gyro_std_rad_s, 3)
+        w = x[ANG] + self._n(self._sensors.gyro_std_rad_s, 3)
         return f_b, w
 
     def _send_imu(self, name: str, f_b: np.ndarray, w: np.ndarray) -> None:
