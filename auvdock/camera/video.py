@@ -61,6 +61,7 @@ import cv2
 import numpy as np
 
 from ..clock import Clock, wall_clock
+from .model import gray_image
 
 __all__ = [
     "RTP_PAYLOAD_TYPE",
@@ -187,15 +188,11 @@ def _check_timeout(timeout_s: float) -> float:
 
 
 def _to_gray(image: np.ndarray) -> np.ndarray:
-    if image.ndim == 3 and image.shape[2] == 1:
-        image = image[:, :, 0]
-    elif image.ndim == 3 and image.shape[2] == 3:
-        image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
-    elif image.ndim == 3 and image.shape[2] == 4:
-        image = cv2.cvtColor(image, cv2.COLOR_BGRA2GRAY)
-    if image.ndim != 2 or image.dtype != np.uint8:
-        raise VideoSourceError(f"unsupported frame: dtype {image.dtype}, shape {image.shape}")
-    return np.ascontiguousarray(image)
+    """A decoded frame as contiguous grayscale uint8 (:func:`auvdock.camera.model.gray_image`)."""
+    try:
+        return np.ascontiguousarray(gray_image(image))
+    except ValueError:
+        raise VideoSourceError(f"unsupported frame: dtype {image.dtype}, shape {image.shape}") from None
 
 
 class _SourceBase:
