@@ -1,0 +1,107 @@
+"""One definition of each measurement: noise-free ``y = h(x, u, flow_ned)`` for every sensor kind.
+
+The simulator's sensors (numpy, :func:`measure`) and the navigation filter's Jacobians
+(CasADi, :func:`h` / :func:`expression`) read the SAME formulas, written once here on top of
+the one vehicle model (:class:`auvdock.vehicle.model.VehicleModel`).
+
+Frames and arguments: NED world {n}, body FRD {b}; ``x`` (12) is the state ``[eta; nu]`` with
+the body velocity over ground; ``u`` (n) the thrust (N) held over the last control period;
+``flow_ned`` (3) the water velocity at the vehicle in {n} (m/s).
+
+==========  ===  ==========================================================================
+kind        dim  value
+==========  ===  ==========================================================================
+attitude    3    x[ATT]: roll, pitch, yaw (ZYX Euler) from the autopilot's AHRS, rad
+gyro        3    x[ANG]: body angular rate p, q, r, rad/s
+accel       3    specific force in {b} as an IMU measures it, m/s^2:
+                 ``f = nu1_dot + nu2 x nu1 - R(Theta)^T g_n``, ``g_n = (0, 0, g)``;
+                 ``nu1_dot`` from ``model.accelerations(x, B u, flow_ned, 0)``.
+                 At rest and level ``f = (0, 0, -g)`` (ArduPilot convention).
+depth       1    x[POS][2], the pressure sensor's depth (NED down), m
+position    3    x[POS] in the mission's NED frame (acoustic positioning, camera, motion capture), m
+dvl         3    x[LIN]: velocity over ground in {b} (bottom lock), m/s
+==========  ===  ==========================================================================
+
+The IMU sits at the body origin (no lever arm); the flow's rate of change along the path is
+taken as zero in ``accel`` (a current constant in {n}).
+"""
+
+from __future__ import annotations
+
+import weakref
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from .vehicle.model import Smtrx
+from .vehicle.state import ANG, ATT, LIN, NX, POS
+
+__all__ = ["KINDS", "GRAVITY", "ANGLE_ROWS", "expression", "h", "measure"]
+
+#: Standard gravity, m/s^2 (the IMU's g_n = (0, 0, GRAVITY) in NED).
+GRAVITY = 9.80665
+
+#: Every measurement kind and its dimension.
+KINDS: dict[str, int] = {"attitude": 3, "gyro": 3, "accel": 3, "depth": 1, "position": 3, "dvl": 3}
+
+#: Per kind, the rows of its value that are angles (residuals wrapped to [-pi, pi)).
+ANGLE_ROWS: dict[str, tuple[int, ...]] = {"attitude": (0, 1, 2)}
+
+_CACHE: weakref.WeakKeyDictionary[Any, dict[str, ca.Function]] = weakref.WeakKeyDictionary()
+
+
+def _check_kind(kind: str) -> None:
+    if kind not in KINDS:
+        raise KeyError(f"unknown measurement kind {kind!r} (known: {', '.join(KINDS)})")
+
+
+def expression(kind: str, model: Any, x: Any, u: Any, flow_ned: Any) -> Any:
+    """Symbolic value of measurement ``kind`` (``KINDS[kind]`` x 1) from CasADi ``x``, ``u``, ``flow_ned``.
+
+    ``model`` is the :class:`~auvdock.vehicle.model.VehicleModel`.  Works on SX and MX.
+    """
+    _check_kind(kind)
+    if kind == "attitude":
+        return x[ATT]
+    if kind == "gyro":
+        return x[ANG]
+    if kind == "depth":
+        return x[POS][2]
+    if kind == "position":
+        return x[POS]
+    if kind == "dvl":
+        return x[LIN]
+    # accel: specific force in {b}
+    nu_dot, _ = model.accelerations(x, model.wrench(u), flow_ned, ca.DM.zeros(3))
+    nu1, nu2 = x[LIN], x[ANG]
+    R = model.rotation(x[0:6])
+    g_n = ca.DM([0.0, 0.0, GRAVITY])
+    return nu_dot[0:3] + ca.mtimes(Smtrx(nu2), nu1) - ca.mtimes(R.T, g_n)
+
+
+def h(kind: str, vehicle: Any) -> ca.Function:
+    """``h_kind``: (x[12], u[n], flow_ned[3]) -> y[KINDS[kind]], a CasADi SX function, cached per vehicle."""
+    _check_kind(kind)
+    per_vehicle = _CACHE.setdefault(vehicle, {})
+    if kind not in per_vehicle:
+        x = ca.SX.sym("x", NX)
+        u = ca.SX.sym("u", vehicle.n_thrusters)
+        vc = ca.SX.sym("flow_ned", 3)
+        y = expression(kind, vehicle.model, x, u, vc)
+        per_vehicle[kind] = ca.Function(f"h_{kind}", [x, u, vc], [y], ["x", "u", "flow_ned"], ["y"])
+    return per_vehicle[kind]
+
+
+def measure(
+    kind: str, vehicle: Any, x: np.ndarray, u: np.ndarray | None = None, flow_ned: np.ndarray | None = None
+) -> np.ndarray:
+    """Noise-free measurement ``kind`` (``(KINDS[kind],)`` ndarray) at state ``x`` (12,).
+
+    ``u``: thrust (n,, N) held over the last period (default zero); ``flow_ned``: water velocity
+    in {n} (3,, m/s; default still water).  Only ``accel`` depends on ``u`` and ``flow_ned``.
+    """
+    fn = h(kind, vehicle)
+    uu = np.zeros(vehicle.n_thrusters) if u is None else np.asarray(u, dtype=float)
+    vc = np.zeros(3) if flow_ned is None else np.asarray(flow_ned, dtype=float)
+    return np.asarray(fn(np.asarray(x, dtype=float), uu, vc)).reshape(-1)
