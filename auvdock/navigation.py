@@ -1,0 +1,320 @@
+"""The navigation filter: an extended Kalman filter of the vehicle state AND the water current.
+
+It fuses asynchronous sensor readings (the kinds of :mod:`auvdock.measurements`: attitude,
+gyro, accel, depth, position, dvl) with the ONE vehicle model
+(:class:`auvdock.vehicle.model.VehicleModel`) driven by the commanded thrust.
+
+Filter state (14): ``z = [x (12); v_c north, v_c east]`` -- the vehicle state
+``x = [eta; nu]`` (NED position m, ZYX Euler angles rad, body velocity over ground m/s and
+rad/s) and the horizontal water current in {n} (m/s), constant plus a random walk (paper
+Assumption 4: the current is horizontal, its down component is zero).
+
+Predict (from the last step's time to the new one): classical RK4 of ``x_dot = f(x, u, v_c)``
+with the thrust held, the current held; the Jacobian ``F = dz_next/dz`` comes from CasADi
+(``jacobian`` of the discrete step) in the same function, and
+``P <- F P F^T + diag(q^2) h`` (q the process-noise densities of
+:class:`NavigationSettings`, h the time step).  Update: every reading of the step in ONE stacked
+update (the readings' noises are independent, so this equals updating with them one after the
+other), ``y = h(x, u, v_c)`` and ``H = dh/dz`` from :mod:`auvdock.measurements`,
+``R = diag(std^2)``, Joseph form ``P <- (I - K H) P (I - K H)^T + K R K^T``; attitude
+residuals are wrapped to [-pi, pi), and so is the yaw estimate.
+
+Latency: a reading sampled before the step's time (``Reading.t < t``) is applied as if taken
+at ``t`` (no retrodiction); its age is not used.
+
+Cost: one CasADi call (predict, F, P propagation and every measurement's value and Jacobian
+at the predicted state) and a few small numpy products per step; compiled C when a C compiler
+is available and ``$AUVDOCK_COMPILE`` is not ``never`` (:func:`auvdock.codegen.compiled_function`).
+``benchmarks/navigation_step.py`` measures it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import casadi as ca
+import numpy as np
+from pydantic import Field
+
+from . import measurements
+from .codegen import compiled_function
+from .schema import PosFloat, Strict
+from .vehicle.model import rk4
+from .vehicle.state import ANG, ATT, LIN, NX, POS, YAW
+
+__all__ = ["NavigationSettings", "Reading", "NavEstimate", "NavigationFilter", "NZ"]
+
+#: Filter state dimension: vehicle state (12) and horizontal current (2).
+NZ = NX + 2
+_CURRENT = slice(NX, NZ)
+
+# Row offsets of each kind in the stacked measurement vector.
+_OFFSETS: dict[str, int] = {}
+_off = 0
+for _k, _n in measurements.KINDS.items():
+    _OFFSETS[_k] = _off
+    _off += _n
+_NY = _off
+_ANGLE_ROWS = np.array(
+    sorted(_OFFSETS[k] + i for k, rows in measurements.ANGLE_ROWS.items() for i in rows), dtype=int
+)
+
+
+class NavigationSettings(Strict):
+    """Noise model of the navigation filter (standard deviations; densities per sqrt(s)).
+
+    The process noise is the model's error, per state group, as white noise on the state
+    derivative: over a step of h seconds a group's variance grows by ``q^2 h``.  For a filter
+    whose model equals the truth it can be small (the defaults); unmodelled dynamics
+    (damping, buoyancy, thruster errors) go into the velocity and rate terms.
+    """
+
+    position_noise_m_sqrt_s: PosFloat = Field(
+        default=1e-3, description="process noise of the position, m/sqrt(s)"
+    )
+    attitude_noise_rad_sqrt_s: PosFloat = Field(
+        default=1e-3, description="process noise of the Euler angles, rad/sqrt(s)"
+    )
+    velocity_noise_m_s_sqrt_s: PosFloat = Field(
+        default=0.02, description="process noise of the body linear velocity, m/s/sqrt(s)"
+    )
+    rate_noise_rad_s_sqrt_s: PosFloat = Field(
+        default=0.02, description="process noise of the body angular rate, rad/s/sqrt(s)"
+    )
+    current_walk_m_s_sqrt_s: PosFloat = Field(
+        default=0.005, description="random-walk density of the horizontal current, m/s/sqrt(s)"
+    )
+    prior_current_std_m_s: PosFloat = Field(
+        default=1.0, description="prior standard deviation of each current component (mean zero), m/s"
+    )
+    prior_position_std_m: PosFloat = Field(default=1.0, description="prior position std, m")
+    prior_attitude_std_rad: PosFloat = Field(default=0.1, description="prior Euler-angle std, rad")
+    prior_velocity_std_m_s: PosFloat = Field(default=0.5, description="prior body linear velocity std, m/s")
+    prior_rate_std_rad_s: PosFloat = Field(default=0.2, description="prior body angular rate std, rad/s")
+    substeps: int = Field(default=1, ge=1, le=20, description="RK4 steps per prediction period")
+
+    def process_density(self) -> np.ndarray:
+        """Diagonal of the process-noise density (14,): variance growth per second of each component."""
+        q = np.empty(NZ)
+        q[POS] = self.position_noise_m_sqrt_s
+        q[ATT] = self.attitude_noise_rad_sqrt_s
+        q[LIN] = self.velocity_noise_m_s_sqrt_s
+        q[ANG] = self.rate_noise_rad_s_sqrt_s
+        q[_CURRENT] = self.current_walk_m_s_sqrt_s
+        return q**2
+
+    def prior_state_std(self) -> np.ndarray:
+        """Prior standard deviation of the vehicle state (12,)."""
+        s = np.empty(NX)
+        s[POS] = self.prior_position_std_m
+        s[ATT] = self.prior_attitude_std_rad
+        s[LIN] = self.prior_velocity_std_m_s
+        s[ANG] = self.prior_rate_std_rad_s
+        return s
+
+
+@dataclass
+class Reading:
+    """One sensor reading.
+
+    ``kind``: a key of :data:`auvdock.measurements.KINDS`; ``t``: sample time, s; ``value``
+    (``KINDS[kind]``,) in the kind's units; ``std`` (same shape, or a scalar): the noise
+    standard deviation of each component.
+    """
+
+    kind: str
+    t: float
+    value: np.ndarray
+    std: np.ndarray
+
+
+@dataclass
+class NavEstimate:
+    """The filter's estimate at time ``t`` (s).
+
+    ``state`` (12,) and ``state_cov`` (12, 12); ``flow_ned`` (3,) the water current in {n}, m/s
+    (down component 0) and ``flow_cov`` (3, 3) (zero third row and column); ``nis`` the
+    normalized innovation squared of this step's readings (0 with none; chi-square with
+    ``n_meas`` degrees of freedom for a consistent filter).
+    """
+
+    t: float
+    state: np.ndarray
+    state_cov: np.ndarray
+    flow_ned: np.ndarray
+    flow_cov: np.ndarray
+    nis: float
+    n_meas: int = 0
+
+
+def _step_function(vehicle: Any, substeps: int) -> ca.Function:
+    """(z[14], P[14x14], u[n], h, qd[14]) -> (z_next, P_next, y_all(z_next), H_all(z_next))."""
+    m = vehicle.model
+    z = ca.SX.sym("z", NZ)
+    P = ca.SX.sym("P", NZ, NZ)
+    u = ca.SX.sym("u", vehicle.n_thrusters)
+    h = ca.SX.sym("h")
+    qd = ca.SX.sym("qd", NZ)
+
+    def zdot(zz: ca.SX) -> ca.SX:
+        vc = ca.vertcat(zz[NX], zz[NX + 1], 0)
+        return ca.vertcat(m.dynamics(zz[0:NX], u, vc, ca.DM.zeros(3)), 0, 0)
+
+    z_next = rk4(zdot, z, h, substeps)
+    F = ca.jacobian(z_next, z)
+    P_next = ca.mtimes([F, P, F.T]) + ca.diag(qd) * h
+    P_next = 0.5 * (P_next + P_next.T)
+    # every measurement at a state zs (symbolic), then at z_next
+    zs = ca.SX.sym("zs", NZ)
+    vc = ca.vertcat(zs[NX], zs[NX + 1], 0)
+    y = ca.vertcat(*(measurements.expression(k, m, zs[0:NX], u, vc) for k in measurements.KINDS))
+    meas = ca.Function("meas", [zs, u], [y, ca.jacobian(y, zs)])
+    y_next, H_next = meas(z_next, u)
+    return ca.Function(
+        "nav_step",
+        [z, P, u, h, qd],
+        [ca.densify(z_next), ca.densify(P_next), ca.densify(y_next), ca.densify(H_next)],
+        ["z", "P", "u", "h", "qd"],
+        ["z_next", "P_next", "y", "H"],
+    )
+
+
+class NavigationFilter:
+    """EKF of the vehicle state and the horizontal current (see the module docstring).
+
+    Parameters
+    ----------
+    settings : NavigationSettings
+        Process and prior noise.
+    vehicle : auvdock.vehicle.Vehicle
+        The vehicle whose model predicts (the same model the controllers use).
+    dt : float
+        The control period, s: the longest single prediction (longer gaps are split).
+    """
+
+    def __init__(self, settings: NavigationSettings, vehicle: Any, dt: float) -> None:
+        if not dt > 0:
+            raise ValueError(f"dt must be > 0, got {dt}")
+        self.settings = settings
+        self.vehicle = vehicle
+        self.dt = float(dt)
+        fn = _step_function(vehicle, settings.substeps)
+        self._fn, self.build = compiled_function(fn)
+        assert all(self._fn.sparsity_out(i).is_dense() for i in range(4))
+        self._qd = settings.process_density()
+        # zero-copy evaluation into preallocated arrays
+        self._buf, self._eval = self._fn.buffer()
+        self._in_z = np.zeros(NZ)
+        self._in_P = np.zeros((NZ, NZ))
+        self._in_u = np.zeros(vehicle.n_thrusters)
+        self._in_h = np.zeros(1)
+        self._out_z = np.zeros(NZ)
+        self._out_P = np.zeros((NZ, NZ))
+        self._out_y = np.zeros(_NY)
+        self._out_Ht = np.zeros((NZ, _NY))  # column-major H (NY x NZ) read as its transpose
+        for i, a in enumerate((self._in_z, self._in_P, self._in_u, self._in_h, self._qd)):
+            self._buf.set_arg(i, memoryview(a))
+        for i, a in enumerate((self._out_z, self._out_P, self._out_y, self._out_Ht)):
+            self._buf.set_res(i, memoryview(a))
+        self._rows: dict[tuple[str, ...], np.ndarray] = {}
+        self.z = np.zeros(NZ)
+        self.P = np.eye(NZ)
+        self.t: float | None = None
+        self.reset(np.zeros(NX))
+
+    # --- state ---------------------------------------------------------------------------
+    def reset(self, x0: np.ndarray, x0_std: np.ndarray | None = None) -> None:
+        """Start again from the first guess ``x0`` (12,), current zero.
+
+        ``x0_std`` (12,) its standard deviation (default: the settings' prior); the current
+        starts with ``prior_current_std_m_s``.  The first :meth:`step` only updates.
+        """
+        x0 = np.asarray(x0, dtype=float).reshape(NX)
+        std = self.settings.prior_state_std() if x0_std is None else np.asarray(x0_std, float).reshape(NX)
+        self.z = np.concatenate([x0, np.zeros(2)])
+        self.P = np.diag(np.concatenate([std, np.full(2, self.settings.prior_current_std_m_s)]) ** 2)
+        self.t = None
+
+    def estimate(self, nis: float = 0.0, n_meas: int = 0) -> NavEstimate:
+        """The current estimate (copies)."""
+        flow = np.zeros(3)
+        flow[0:2] = self.z[_CURRENT]
+        flow_cov = np.zeros((3, 3))
+        flow_cov[0:2, 0:2] = self.P[_CURRENT, _CURRENT]
+        return NavEstimate(
+            t=float(self.t) if self.t is not None else 0.0,
+            state=self.z[0:NX].copy(),
+            state_cov=self.P[0:NX, 0:NX].copy(),
+            flow_ned=flow,
+            flow_cov=flow_cov,
+            nis=float(nis),
+            n_meas=int(n_meas),
+        )
+
+    # --- one step ------------------------------------------------------------------------
+    def _evaluate(self, h: float) -> None:
+        self._in_z[:] = self.z
+        self._in_P[:] = self.P
+        self._in_h[0] = h
+        self._eval()
+
+    def _predict(self, t: float, u: np.ndarray) -> None:
+        self._in_u[:] = u
+        if self.t is None or t <= self.t:
+            self._evaluate(0.0)  # measurements at the current state
+            self.t = t if self.t is None else max(self.t, t)
+            return
+        gap = t - self.t
+        n = max(1, math.ceil(gap / self.dt - 1e-9))
+        h = gap / n
+        for _ in range(n):
+            self._evaluate(h)
+            self.z[:] = self._out_z
+            self.P[:] = self._out_P
+        self.t = t
+
+    def step(self, t: float, readings: list[Reading], u_applied: np.ndarray) -> NavEstimate:
+        """Predict to time ``t`` (s) with thrust ``u_applied`` (n,, N, held since the last step),
+        then update with ``readings`` (applied at ``t`` whatever their sample time)."""
+        self._predict(float(t), np.asarray(u_applied, dtype=float))
+        nis = 0.0
+        n_meas = 0
+        if readings:
+            key = tuple(r.kind for r in readings)
+            rows = self._rows.get(key)
+            if rows is None:
+                rows = np.concatenate(
+                    [np.arange(_OFFSETS[k], _OFFSETS[k] + measurements.KINDS[k]) for k in key]
+                )
+                self._rows[key] = rows
+            values = np.concatenate([np.atleast_1d(np.asarray(r.value, dtype=float)) for r in readings])
+            var = np.concatenate(
+                [
+                    np.broadcast_to(np.asarray(r.std, dtype=float), (measurements.KINDS[r.kind],))
+                    for r in readings
+                ]
+            )
+            var = var * var
+            nis, n_meas = self._update(rows, values, var)
+        self.z[YAW] = (self.z[YAW] + math.pi) % (2 * math.pi) - math.pi
+        return self.estimate(nis, n_meas)
+
+    def _update(self, rows: np.ndarray, values: np.ndarray, var: np.ndarray) -> tuple[float, int]:
+        H = self._out_Ht[:, rows].T  # (m, NZ)
+        r = values - self._out_y[rows]
+        ang = np.isin(rows, _ANGLE_ROWS)
+        if ang.any():
+            r[ang] = (r[ang] + math.pi) % (2 * math.pi) - math.pi
+        P = self.P
+        PHt = P @ H.T
+        S = H @ PHt
+        S[np.diag_indices_from(S)] += var
+        Sinv_r = np.linalg.solve(S, np.column_stack([r, PHt.T]))
+        K = Sinv_r[:, 1:].T  # P H^T S^-1 (S symmetric)
+        nis = float(r @ Sinv_r[:, 0])
+        self.z += K @ r
+        A = np.eye(NZ) - K @ H
+        self.P = A @ P @ A.T + (K * var) @ K.T
+        return nis, len(rows)
