@@ -8,6 +8,7 @@ between is :meth:`Autopilot.step`.  :func:`build_autopilot` builds it from a mis
 from __future__ import annotations
 
 import time
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -19,6 +20,9 @@ from .estimator import EstimatorSettings
 from .interrupts import SigintDeferred
 from .mission import Mission
 from .sensors import SensorSettings
+
+if TYPE_CHECKING:
+    from .estimation import NavigationStage
 from .vehicle import Vehicle
 
 __all__ = ["Measurement", "Autopilot", "build_autopilot"]
@@ -35,6 +39,10 @@ class Autopilot:
         The vehicle model and the dock whose motion is known (Assumption 2).
     estimator, sensors : EstimatorSettings, SensorSettings, optional
         The flow estimator's settings and the sensor noise it accounts for.
+    navigation : NavigationStage, optional
+        The estimation stage of ``estimation: filter`` (:mod:`auvdock.estimation`): every
+        step then estimates the state (and the current) from the measurement's readings
+        and hands the controller that estimate.  None: ``estimation: truth``.
 
     Attributes
     ----------
@@ -50,8 +58,10 @@ class Autopilot:
         dock: HeaveDock,
         estimator: EstimatorSettings | None = None,
         sensors: SensorSettings | None = None,
+        navigation: NavigationStage | None = None,
     ) -> None:
         t0 = time.perf_counter()
+        self.navigation = navigation
         self.settings = settings
         self.vehicle = vehicle
         self.dock = dock
@@ -68,19 +78,30 @@ class Autopilot:
     @property
     def extra_series(self) -> dict[str, tuple[int, ...]]:
         """Extra per-step series this autopilot records (name -> per-row shape)."""
-        return dict(getattr(self.controller, "extra_series", {}))
+        series = dict(getattr(self.controller, "extra_series", {}))
+        if self.navigation is not None:
+            from .estimation import ESTIMATION_SERIES
+
+            series.update(ESTIMATION_SERIES)
+        return series
 
     def reset(self) -> None:
         """Start a new run."""
         self.controller.reset()
+        if self.navigation is not None:
+            self.navigation.reset()
         self.u_prev = np.zeros(self.vehicle.n_thrusters)
 
     def step(self, meas: Measurement) -> ControlOutput:
         """One control step: estimate, solve, and return the thrust to hold for one period."""
         t0 = time.perf_counter()
+        recorded: dict[str, np.ndarray] = {}
+        if self.navigation is not None:
+            meas, recorded = self.navigation.step(meas, self.u_prev)
         if not self.reads_true_flow:
             meas = Measurement(meas.t, meas.state, None, meas.sensors)
         out = self.controller.step(meas, self.u_prev)
+        out.series.update(recorded)
         out.solve_time_s = time.perf_counter() - t0
         self.u_prev = out.thrust.copy()
         return out
@@ -94,4 +115,9 @@ def build_autopilot(
     The one way every command (sim, compare, sweep, fly, replay) builds its step.
     """
     m = mission if controller is None else mission.with_controller(controller)
-    return Autopilot(m.controller, vehicle, dock, m.estimator, m.sensors)
+    navigation = None
+    if m.estimation == "filter":
+        from .estimation import NavigationStage
+
+        navigation = NavigationStage(m.navigation, vehicle, m.controller.dt_s, m.start_state())
+    return Autopilot(m.controller, vehicle, dock, m.estimator, m.sensors, navigation)

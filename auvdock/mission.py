@@ -34,6 +34,7 @@ from .controllers.solvers import solver_names
 from .dock import HeaveDock
 from .estimator import EstimatorSettings
 from .flow import ConstantCurrent, DoubleGyre, FlowField, StillWater, flow_case, flow_case_names
+from .navigation import NavigationSettings
 from .schema import NonNegFloat, PosFloat, Strict, Vec3, Vec12, first_error, fixed_len
 from .sensors import SensorSettings
 from .vehicle import Vehicle, load_vehicle, preset_names
@@ -366,6 +367,12 @@ class Mission(Strict):
         description="the docking controller: type (naive, kinematic, oracle, sequential, "
         "optimized) and its settings; fields of other types are errors",
     )
+    estimation: Literal["truth", "filter"] = Field(
+        default="truth",
+        description="what every controller takes its state from: truth (the paper's Assumption 1) "
+        "or filter (the navigation filter on the sensor suite: auvdock.estimation)",
+    )
+    navigation: NavigationSettings = Field(default_factory=NavigationSettings)
     estimator: EstimatorSettings = Field(default_factory=EstimatorSettings)
     sensors: SensorSettings = Field(default_factory=SensorSettings)
     docking: DockingSpec = Field(default_factory=DockingSpec)

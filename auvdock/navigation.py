@@ -4,10 +4,15 @@ It fuses asynchronous sensor readings (the kinds of :mod:`auvdock.measurements`:
 gyro, accel, depth, position, dvl) with the ONE vehicle model
 (:class:`auvdock.vehicle.model.VehicleModel`) driven by the commanded thrust.
 
-Filter state (14): ``z = [x (12); v_c north, v_c east]`` -- the vehicle state
-``x = [eta; nu]`` (NED position m, ZYX Euler angles rad, body velocity over ground m/s and
-rad/s) and the horizontal water current in {n} (m/s), constant plus a random walk (paper
-Assumption 4: the current is horizontal, its down component is zero).
+Filter state (20): ``z = [x (12); v_c north, v_c east; b_a (3); b_g (3)]`` -- the vehicle
+state ``x = [eta; nu]`` (NED position m, ZYX Euler angles rad, body velocity over ground m/s
+and rad/s), the horizontal water current in {n} (m/s), constant plus a random walk (paper
+Assumption 4: the current is horizontal, its down component is zero), and the IMU's
+accelerometer (m/s^2) and gyro (rad/s) biases, constant plus a slow random walk.  The IMU
+readings are modelled as the measurement's definition plus its bias
+(``accel = h_accel(x, u, v_c) + b_a``, ``gyro = x[ANG] + b_g``): an unestimated accelerometer
+bias of 0.02 m/s^2 is read as a heave velocity of centimetres per second, enough to hold a
+docking vehicle off its dock.
 
 Predict (from the last step's time to the new one): classical RK4 of ``x_dot = f(x, u, v_c)``
 with the thrust held, the current held; the Jacobian ``F = dz_next/dz`` comes from CasADi
@@ -46,9 +51,11 @@ from .vehicle.state import ANG, ATT, LIN, NX, POS, YAW
 
 __all__ = ["NavigationSettings", "Reading", "NavEstimate", "NavigationFilter", "NZ"]
 
-#: Filter state dimension: vehicle state (12) and horizontal current (2).
-NZ = NX + 2
-_CURRENT = slice(NX, NZ)
+#: Filter state dimension: vehicle state (12), horizontal current (2), accelerometer and gyro biases (3 + 3).
+NZ = NX + 8
+_CURRENT = slice(NX, NX + 2)
+_BIAS_A = slice(NX + 2, NX + 5)
+_BIAS_G = slice(NX + 5, NX + 8)
 
 # Row offsets of each kind in the stacked measurement vector.
 _OFFSETS: dict[str, int] = {}
@@ -60,6 +67,21 @@ _NY = _off
 _ANGLE_ROWS = np.array(
     sorted(_OFFSETS[k] + i for k, rows in measurements.ANGLE_ROWS.items() for i in rows), dtype=int
 )
+
+
+#: Most relinearisations of one update (iterated EKF).
+IEKF_MAX_ITER = 8
+
+#: Gate of the normalized innovation squared per number of rows (chi-square, 99.9 %).
+_GATE_NIS: dict[int, float] = {}
+
+
+def _chi2_ppf(m: int) -> float:
+    """The 99.9 % quantile of chi-square with ``m`` degrees of freedom (Wilson-Hilferty), cached."""
+    z = 3.090232  # standard normal 99.9 %
+    q = m * (1.0 - 2.0 / (9.0 * m) + z * math.sqrt(2.0 / (9.0 * m))) ** 3
+    _GATE_NIS[m] = q
+    return q
 
 
 class NavigationSettings(Strict):
@@ -89,6 +111,18 @@ class NavigationSettings(Strict):
     prior_current_std_m_s: PosFloat = Field(
         default=1.0, description="prior standard deviation of each current component (mean zero), m/s"
     )
+    accel_bias_walk_m_s2_sqrt_s: PosFloat = Field(
+        default=1e-4, description="random-walk density of the accelerometer bias, m/s^2/sqrt(s)"
+    )
+    gyro_bias_walk_rad_s_sqrt_s: PosFloat = Field(
+        default=1e-5, description="random-walk density of the gyro bias, rad/s/sqrt(s)"
+    )
+    prior_accel_bias_std_m_s2: PosFloat = Field(
+        default=0.05, description="prior std of each accelerometer bias component (mean zero), m/s^2"
+    )
+    prior_gyro_bias_std_rad_s: PosFloat = Field(
+        default=0.005, description="prior std of each gyro bias component (mean zero), rad/s"
+    )
     prior_position_std_m: PosFloat = Field(default=1.0, description="prior position std, m")
     prior_attitude_std_rad: PosFloat = Field(default=0.1, description="prior Euler-angle std, rad")
     prior_velocity_std_m_s: PosFloat = Field(default=0.5, description="prior body linear velocity std, m/s")
@@ -96,13 +130,15 @@ class NavigationSettings(Strict):
     substeps: int = Field(default=1, ge=1, le=20, description="RK4 steps per prediction period")
 
     def process_density(self) -> np.ndarray:
-        """Diagonal of the process-noise density (14,): variance growth per second of each component."""
+        """Diagonal of the process-noise density (20,): variance growth per second of each component."""
         q = np.empty(NZ)
         q[POS] = self.position_noise_m_sqrt_s
         q[ATT] = self.attitude_noise_rad_sqrt_s
         q[LIN] = self.velocity_noise_m_s_sqrt_s
         q[ANG] = self.rate_noise_rad_s_sqrt_s
         q[_CURRENT] = self.current_walk_m_s_sqrt_s
+        q[_BIAS_A] = self.accel_bias_walk_m_s2_sqrt_s
+        q[_BIAS_G] = self.gyro_bias_walk_rad_s_sqrt_s
         return q**2
 
     def prior_state_std(self) -> np.ndarray:
@@ -149,8 +185,8 @@ class NavEstimate:
     n_meas: int = 0
 
 
-def _step_function(vehicle: Any, substeps: int) -> ca.Function:
-    """(z[14], P[14x14], u[n], h, qd[14]) -> (z_next, P_next, y_all(z_next), H_all(z_next))."""
+def _step_function(vehicle: Any, substeps: int) -> tuple[ca.Function, ca.Function]:
+    """(z[NZ], P[NZ x NZ], u[n], h, qd[NZ]) -> (z_next, P_next, y_all(z_next), H_all(z_next))."""
     m = vehicle.model
     z = ca.SX.sym("z", NZ)
     P = ca.SX.sym("P", NZ, NZ)
@@ -160,7 +196,7 @@ def _step_function(vehicle: Any, substeps: int) -> ca.Function:
 
     def zdot(zz: ca.SX) -> ca.SX:
         vc = ca.vertcat(zz[NX], zz[NX + 1], 0)
-        return ca.vertcat(m.dynamics(zz[0:NX], u, vc, ca.DM.zeros(3)), 0, 0)
+        return ca.vertcat(m.dynamics(zz[0:NX], u, vc, ca.DM.zeros(3)), ca.DM.zeros(NZ - NX))
 
     z_next = rk4(zdot, z, h, substeps)
     F = ca.jacobian(z_next, z)
@@ -169,10 +205,18 @@ def _step_function(vehicle: Any, substeps: int) -> ca.Function:
     # every measurement at a state zs (symbolic), then at z_next
     zs = ca.SX.sym("zs", NZ)
     vc = ca.vertcat(zs[NX], zs[NX + 1], 0)
-    y = ca.vertcat(*(measurements.expression(k, m, zs[0:NX], u, vc) for k in measurements.KINDS))
-    meas = ca.Function("meas", [zs, u], [y, ca.jacobian(y, zs)])
+    bias = {"accel": zs[_BIAS_A], "gyro": zs[_BIAS_G]}
+    y = ca.vertcat(
+        *(
+            measurements.expression(k, m, zs[0:NX], u, vc) + bias[k]
+            if k in bias
+            else measurements.expression(k, m, zs[0:NX], u, vc)
+            for k in measurements.KINDS
+        )
+    )
+    meas = ca.Function("nav_meas", [zs, u], [ca.densify(y), ca.densify(ca.jacobian(y, zs))])
     y_next, H_next = meas(z_next, u)
-    return ca.Function(
+    return meas, ca.Function(
         "nav_step",
         [z, P, u, h, qd],
         [ca.densify(z_next), ca.densify(P_next), ca.densify(y_next), ca.densify(H_next)],
@@ -200,8 +244,9 @@ class NavigationFilter:
         self.settings = settings
         self.vehicle = vehicle
         self.dt = float(dt)
-        fn = _step_function(vehicle, settings.substeps)
+        meas, fn = _step_function(vehicle, settings.substeps)
         self._fn, self.build = compiled_function(fn)
+        self._meas, _ = compiled_function(meas)
         assert all(self._fn.sparsity_out(i).is_dense() for i in range(4))
         self._qd = settings.process_density()
         # zero-copy evaluation into preallocated arrays
@@ -219,6 +264,8 @@ class NavigationFilter:
         for i, a in enumerate((self._out_z, self._out_P, self._out_y, self._out_Ht)):
             self._buf.set_res(i, memoryview(a))
         self._rows: dict[tuple[str, ...], np.ndarray] = {}
+        #: Updates dropped because they would have made the estimate non-finite.
+        self.rejected_updates = 0
         self.z = np.zeros(NZ)
         self.P = np.eye(NZ)
         self.t: float | None = None
@@ -226,15 +273,23 @@ class NavigationFilter:
 
     # --- state ---------------------------------------------------------------------------
     def reset(self, x0: np.ndarray, x0_std: np.ndarray | None = None) -> None:
-        """Start again from the first guess ``x0`` (12,), current zero.
+        """Start again from the first guess ``x0`` (12,), current and IMU biases zero.
 
-        ``x0_std`` (12,) its standard deviation (default: the settings' prior); the current
-        starts with ``prior_current_std_m_s``.  The first :meth:`step` only updates.
+        ``x0_std`` (12,) its standard deviation (default: the settings' prior); the current and
+        the biases start with their priors' std.  The first :meth:`step` only updates.
         """
         x0 = np.asarray(x0, dtype=float).reshape(NX)
-        std = self.settings.prior_state_std() if x0_std is None else np.asarray(x0_std, float).reshape(NX)
-        self.z = np.concatenate([x0, np.zeros(2)])
-        self.P = np.diag(np.concatenate([std, np.full(2, self.settings.prior_current_std_m_s)]) ** 2)
+        st = self.settings
+        std = st.prior_state_std() if x0_std is None else np.asarray(x0_std, float).reshape(NX)
+        self.z = np.concatenate([x0, np.zeros(NZ - NX)])
+        extra = np.concatenate(
+            [
+                np.full(2, st.prior_current_std_m_s),
+                np.full(3, st.prior_accel_bias_std_m_s2),
+                np.full(3, st.prior_gyro_bias_std_rad_s),
+            ]
+        )
+        self.P = np.diag(np.concatenate([std, extra]) ** 2)
         self.t = None
 
     def estimate(self, nis: float = 0.0, n_meas: int = 0) -> NavEstimate:
@@ -278,7 +333,12 @@ class NavigationFilter:
     def step(self, t: float, readings: list[Reading], u_applied: np.ndarray) -> NavEstimate:
         """Predict to time ``t`` (s) with thrust ``u_applied`` (n,, N, held since the last step),
         then update with ``readings`` (applied at ``t`` whatever their sample time)."""
+        before_z, before_P = self.z.copy(), self.P.copy()
         self._predict(float(t), np.asarray(u_applied, dtype=float))
+        if not (np.all(np.isfinite(self.z)) and np.all(np.isfinite(self.P))):
+            # the model integrated a diverged estimate into overflow: hold the last finite one
+            self.z, self.P = before_z, before_P
+            self.rejected_updates += 1
         nis = 0.0
         n_meas = 0
         if readings:
@@ -297,24 +357,56 @@ class NavigationFilter:
                 ]
             )
             var = var * var
-            nis, n_meas = self._update(rows, values, var)
+            good_z, good_P = self.z.copy(), self.P.copy()
+            try:
+                nis, n_meas = self._update(rows, values, var)
+            except np.linalg.LinAlgError:
+                self.z, self.P = good_z, good_P
+                nis, n_meas = math.inf, 0
+            if not (np.all(np.isfinite(self.z)) and np.all(np.isfinite(self.P))):
+                # never hand on a non-finite estimate: keep the predicted one, and count it
+                self.z, self.P = good_z, good_P
+                self.rejected_updates += 1
+                nis, n_meas = math.inf, 0
         self.z[YAW] = (self.z[YAW] + math.pi) % (2 * math.pi) - math.pi
         return self.estimate(nis, n_meas)
 
     def _update(self, rows: np.ndarray, values: np.ndarray, var: np.ndarray) -> tuple[float, int]:
-        H = self._out_Ht[:, rows].T  # (m, NZ)
-        r = values - self._out_y[rows]
-        ang = np.isin(rows, _ANGLE_ROWS)
-        if ang.any():
-            r[ang] = (r[ang] + math.pi) % (2 * math.pi) - math.pi
-        P = self.P
-        PHt = P @ H.T
-        S = H @ PHt
-        S[np.diag_indices_from(S)] += var
-        Sinv_r = np.linalg.solve(S, np.column_stack([r, PHt.T]))
-        K = Sinv_r[:, 1:].T  # P H^T S^-1 (S symmetric)
-        nis = float(r @ Sinv_r[:, 0])
-        self.z += K @ r
+        """Iterated EKF update (Gauss-Newton on the measurement model; Bell and Cathey 1993).
+
+        The first iteration is the EKF update at the prediction.  While the innovation is far
+        outside what the filter expects (NIS above the chi-square 99.9 % quantile) -- a start
+        far from the truth, where the accelerometer's dependence on the current through the
+        quadratic drag is poorly linearised at the prediction -- the measurement model is
+        linearised again at the new iterate, up to :data:`IEKF_MAX_ITER` times.
+        """
+        z_pred, P = self.z.copy(), self.P
+        y, Ht = self._out_y, self._out_Ht
+        gate = _GATE_NIS.get(len(rows)) or float(_chi2_ppf(len(rows)))
+        z_i = z_pred
+        nis = math.inf
+        for it in range(IEKF_MAX_ITER):
+            H = Ht[:, rows].T  # (m, NZ)
+            r = values - y[rows] - H @ (z_pred - z_i)
+            ang = np.isin(rows, _ANGLE_ROWS)
+            if ang.any():
+                r[ang] = (r[ang] + math.pi) % (2 * math.pi) - math.pi
+            PHt = P @ H.T
+            S = H @ PHt
+            S[np.diag_indices_from(S)] += var
+            Sinv_r = np.linalg.solve(S, np.column_stack([r, PHt.T]))
+            K = Sinv_r[:, 1:].T  # P H^T S^-1 (S symmetric)
+            if it == 0:
+                nis = float(r @ Sinv_r[:, 0])
+            z_new = z_pred + K @ r
+            step = float(np.max(np.abs(z_new - z_i)))
+            z_i = z_new
+            if nis <= gate or step < 1e-6 or it == IEKF_MAX_ITER - 1:
+                break
+            y_dm, H_dm = self._meas(z_i, self._in_u)
+            y = np.asarray(y_dm).ravel()
+            Ht = np.asarray(H_dm).T
+        self.z = z_i
         A = np.eye(NZ) - K @ H
         self.P = A @ P @ A.T + (K * var) @ K.T
         return nis, len(rows)

@@ -792,4 +792,3 @@ def _list_runs(f: h5py.File) -> list[str]:
 
     f.visititems(visit)
     return sorted(found)
-

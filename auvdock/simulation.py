@@ -34,7 +34,7 @@ from .geometry import wrap_angle
 from .interrupts import SigintDeferred
 from .mission import Mission
 from .results import RunWriter
-from .sensors import SensorModel
+from .sensors import SensorModel, SensorSuite
 from .vehicle.state import ATT, LIN, POS, YAW
 
 __all__ = ["Progress", "RunSummary", "simulate", "run_outcome"]
@@ -193,10 +193,12 @@ def simulate(
                     "vehicle": vehicle.name,
                     "solver": ap.solver,
                     "reads_true_flow": ap.reads_true_flow,
+                    "estimation": mission.estimation,
                 },
             )
 
     sensors = SensorModel(mission.sensors, mission.seed, rot)
+    suite = SensorSuite(mission.sensors, vehicle, mission.seed) if ap.navigation is not None else None
     record_true_body_flow = "flow_body_true_m_s" in ap.extra_series
     no_step_extras = {name: np.full(shape, np.nan) for name, shape in ap.extra_series.items()}
     x = mission.start_state()
@@ -244,9 +246,14 @@ def simulate(
                 final_row(t, x, dist)
                 break
             v_c = flow.velocity(x[POS], t)
-            out_k = ap.step(
-                Measurement(t=t, state=x.copy(), flow_ned=v_c, sensors=sensors.read(x, x_prev, dt, v_c))
-            )
+            if suite is None:  # estimation: truth (the paper's Assumption 1)
+                meas = Measurement(
+                    t=t, state=x.copy(), flow_ned=v_c, sensors=sensors.read(x, x_prev, dt, v_c)
+                )
+            else:  # estimation: filter -- the controllers see only what the sensor suite reads
+                readings = suite.read(t, x, ap.u_prev, v_c)
+                meas = Measurement(t=t, state=np.full_like(x, np.nan), flow_ned=v_c, readings=readings)
+            out_k = ap.step(meas)
             if record_true_body_flow:
                 f_true = rot(x[ATT]).T @ v_c
                 out_k.series["flow_body_true_m_s"] = f_true

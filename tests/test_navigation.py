@@ -28,6 +28,9 @@ def vehicle():
     return load_vehicle("bluerov2_heavy")
 
 
+ZERO3 = np.zeros(3)
+
+
 def thrust(vehicle, t):
     """Surge, sway, depth-holding heave and a slow yaw moment: the vehicle moves and turns."""
     tau = np.array(
@@ -37,8 +40,8 @@ def thrust(vehicle, t):
     return np.clip(u, vehicle.thrust_min, vehicle.thrust_max)
 
 
-def run(seed, truth, model, settings, T=30.0, dvl=False, current=CURRENT):
-    """Simulate; rows (t, error z_true - z_hat (14,), NEES, estimate)."""
+def run(seed, truth, model, settings, T=30.0, dvl=False, current=CURRENT, bias_a=ZERO3, bias_g=ZERO3):
+    """Simulate; rows (t, error z_true - z_hat (NZ,), NEES, estimate); IMU biases in the readings."""
     rng = np.random.default_rng(seed)
     flow = ConstantCurrent(*current)
     step = truth.stepper(DT, 4, flow)
@@ -59,9 +62,11 @@ def run(seed, truth, model, settings, T=30.0, dvl=False, current=CURRENT):
         for kind in kinds:
             y = ms.measure(kind, truth, x, u, vc)
             noisy = y + rng.normal(size=y.shape) * STD[kind]
+            noisy = noisy + (bias_a if kind == "accel" else bias_g if kind == "gyro" else 0.0)
             readings.append(Reading(kind, t, noisy, np.full(y.shape, STD[kind])))
         est = nav.step(t, readings, u)
-        e = np.concatenate([x - est.state, vc[0:2] - est.flow_ned[0:2]])
+        e = np.concatenate([x - est.state, vc[0:2] - est.flow_ned[0:2], bias_a - nav.z[NX + 2 : NX + 5]])
+        e = np.concatenate([e, bias_g - nav.z[NX + 5 : NZ]])
         e[YAW] = (e[YAW] + np.pi) % (2 * np.pi) - np.pi
         rows.append((t, e, float(e @ np.linalg.solve(nav.P, e)), est))
         u = thrust(model, t)
@@ -84,7 +89,7 @@ def test_estimate_shape_and_api(vehicle):
 def test_current_converges(vehicle, dvl):
     rows = run(0, vehicle, vehicle, NavigationSettings(), T=30.0, dvl=dvl)
     late = [r for r in rows if r[0] >= 20.0]
-    cur_err = max(np.linalg.norm(r[1][NX:NZ]) for r in late)
+    cur_err = max(np.linalg.norm(r[1][NX : NX + 2]) for r in late)
     pos_err = max(np.linalg.norm(r[1][0:3]) for r in late)
     att_err = max(np.abs(r[1][3:6]).max() for r in late)
     vel_err = max(np.linalg.norm(r[1][6:9]) for r in late)
@@ -97,7 +102,7 @@ def test_current_converges(vehicle, dvl):
 
 
 def test_nees_over_seeds(vehicle):
-    """Time-averaged NEES (t >= 10 s, one sample a second) of the 14-state over 20 seeds."""
+    """Time-averaged NEES (t >= 10 s, one sample a second) of the NZ-state over 20 seeds."""
     settings = NavigationSettings()
     n_seeds, t0 = 20, 10.0
     means = []
@@ -117,6 +122,20 @@ def test_nees_over_seeds(vehicle):
     assert np.all(np.isfinite(means))
 
 
+def test_imu_biases_are_estimated(vehicle):
+    """Constant IMU biases (as the sensor suite draws them) are learnt: the velocity estimate is
+    not biased by the accelerometer's offset, and the current still converges."""
+    b_a, b_g = np.array([0.02, -0.015, 0.03]), np.array([1e-3, -2e-3, 1.5e-3])
+    rows = run(1, vehicle, vehicle, NavigationSettings(), T=40.0, bias_a=b_a, bias_g=b_g)
+    late = [r for r in rows if r[0] >= 30.0]
+    vel_bias = np.abs(np.mean([r[1][6:9] for r in late], axis=0))
+    acc_err = np.linalg.norm(late[-1][1][NX + 2 : NX + 5])
+    print(f"biases: mean velocity error {vel_bias}, accel bias error {acc_err:.4f} m/s^2")
+    assert np.all(vel_bias < 0.01)
+    assert acc_err < 0.01
+    assert max(np.linalg.norm(r[1][NX : NX + 2]) for r in late) < 0.05
+
+
 def test_model_error_stays_bounded(vehicle):
     base = vehicle.params
     truth = load_vehicle(
@@ -130,6 +149,6 @@ def test_model_error_stays_bounded(vehicle):
     rows = run(0, truth, vehicle, NavigationSettings(), T=30.0)
     assert all(np.all(np.isfinite(r[3].state)) and np.all(np.isfinite(r[3].state_cov)) for r in rows)
     late = [r for r in rows if r[0] >= 20.0]
-    cur_err = max(np.linalg.norm(r[1][NX:NZ]) for r in late)
+    cur_err = max(np.linalg.norm(r[1][NX : NX + 2]) for r in late)
     print(f"model error: current error after 20 s <= {cur_err:.3f} m/s")
     assert cur_err < 0.2

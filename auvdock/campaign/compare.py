@@ -64,11 +64,13 @@ def campaign_specs(
     *,
     seed: int | None = None,
     timeout_s: float | None = None,
+    estimation: str | None = None,
 ) -> list[RunSpec]:
     """Every (mission, controller) pair, missions in the given order.
 
-    ``missions`` are files or shipped mission names (``gyre``); ``seed`` and ``timeout_s``
-    override every mission's.
+    ``missions`` are files or shipped mission names (``gyre``); ``seed``, ``timeout_s`` and
+    ``estimation`` (``truth`` or ``filter``: one choice for every controller) override every
+    mission's.
 
     Raises
     ------
@@ -96,6 +98,8 @@ def campaign_specs(
                 overrides["seed"] = int(seed)
             if timeout_s is not None:
                 overrides["docking.timeout_s"] = float(timeout_s)
+            if estimation is not None:
+                overrides["estimation"] = str(estimation)
             run = apply_overrides(data, overrides, path)  # fails here, not in a worker
             specs.append(
                 RunSpec(

@@ -118,6 +118,12 @@ def compare(
     timeout: float | None = typer.Option(
         None, "--timeout", min=0.0, help="Docking timeout for every run, s (default: each mission's)."
     ),
+    estimation: str | None = typer.Option(
+        None,
+        "--estimation",
+        help="truth (the paper's Assumption 1) or filter (the navigation filter on the sensor suite), "
+        "for every controller (default: each mission's).",
+    ),
     resume: bool = typer.Option(
         False, "--resume", help="Continue the campaign in --out: skip the runs done."
     ),
@@ -145,7 +151,9 @@ def compare(
         if not m.is_file():
             fail_input(f"{m}: file not found")
     try:
-        specs = campaign_specs(paths, ctrls, seed=seed, timeout_s=timeout)
+        if estimation is not None and estimation not in ("truth", "filter"):
+            fail_input(f"--estimation: must be truth or filter (got {estimation!r})")
+        specs = campaign_specs(paths, ctrls, seed=seed, timeout_s=timeout, estimation=estimation)
     except (MissionError, ValueError) as e:
         fail_input(str(e))
         raise AssertionError("unreachable") from None
@@ -160,7 +168,7 @@ def compare(
         words += ["--controllers", ",".join(ctrls)]
     words += ["--scheduler", scheduler] if scheduler else ["--jobs", str(n_jobs)]
     words += ["--out", str(out)]
-    for flag, value in (("--seed", seed), ("--timeout", timeout)):
+    for flag, value in (("--seed", seed), ("--timeout", timeout), ("--estimation", estimation)):
         if value is not None:
             words += [flag, str(value)]
     flags = (("--resume", resume), ("--force", force), ("--pdf", pdf), ("--no-plots", no_plots))

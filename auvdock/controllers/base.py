@@ -28,12 +28,17 @@ class Measurement:
     sensors : dict
         Raw readings for the estimators: ``pose`` (6,), ``gyro_rad_s`` (3,),
         ``relative_velocity_m_s`` (3,), ``accel_m_s2`` (3,), ``depth_rate_m_s`` (scalar).
+    readings : list
+        The sensor suite's readings delivered since the last step
+        (:class:`auvdock.navigation.Reading`), for the navigation filter
+        (``estimation: filter``); ``state`` is then not used by the controller.
     """
 
     t: float
     state: np.ndarray
     flow_ned: np.ndarray | None = None
     sensors: dict[str, np.ndarray] = field(default_factory=dict)
+    readings: list[Any] = field(default_factory=list)
 
 
 @dataclass

@@ -1,0 +1,90 @@
+"""The estimation stage: the sensor suite simulated from the truth, and every controller flying on
+the navigation filter's estimate (``estimation: filter``) instead of the true state."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from auvdock.measurements import measure
+from auvdock.mission import load_mission
+from auvdock.results import read_run
+from auvdock.sensors import POSITION_SOURCES, SensorSettings, SensorSuite
+from auvdock.simulation import simulate
+from auvdock.vehicle import load_vehicle
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _suite_readings(seed: int, steps: int = 40, dt: float = 0.05, **sensors):
+    v = load_vehicle("bluerov2_heavy")
+    suite = SensorSuite(SensorSettings.model_validate(sensors), v, seed)
+    x = np.zeros(12)
+    x[2] = 1.0
+    x[6] = 0.3
+    u = np.zeros(v.n_thrusters)
+    out = []
+    for k in range(steps):
+        out.append(suite.read(k * dt, x, u, np.zeros(3)))
+    return v, x, u, out
+
+
+def test_suite_is_seeded_and_reads_the_one_measurement_definitions() -> None:
+    _, _, _, a = _suite_readings(3)
+    _, _, _, b = _suite_readings(3)
+    _, _, _, c = _suite_readings(4)
+    flat = lambda rs: np.concatenate([r.value for step in rs for r in step])  # noqa: E731
+    assert np.array_equal(flat(a), flat(b))
+    assert not np.array_equal(flat(a), flat(c))
+    v, x, u, rs = _suite_readings(5, steps=400, imu={"accel_bias_m_s2": 0.0, "gyro_bias_rad_s": 0.0})
+    for kind in ("attitude", "gyro", "accel", "depth", "position"):
+        vals = np.array([r.value for step in rs for r in step if r.kind == kind])
+        truth = measure(kind, v, x, u, np.zeros(3))
+        std = {r.kind: r.std for step in rs for r in step}[kind]
+        # the mean of n noisy readings is the noise-free definition within 5 standard errors
+        assert np.all(np.abs(vals.mean(axis=0) - truth) <= 5 * std / np.sqrt(len(vals)) + 1e-12), kind
+
+
+def test_rates_latency_and_biases() -> None:
+    dt = 0.05
+    _, _, _, rs = _suite_readings(1, steps=200, dt=dt, position={"source": "acoustic"})
+    n = {k: sum(r.kind == k for step in rs for r in step) for k in ("attitude", "depth", "position")}
+    rate, latency, _, _ = POSITION_SOURCES["acoustic"]
+    assert n["attitude"] == 200 and n["depth"] == 200  # 25 Hz sensors: one reading per 20 Hz step
+    assert abs(n["position"] - rate * 200 * dt) <= 1
+    # a reading is delivered once its latency has passed, with its sample time
+    for k, step in enumerate(rs):
+        for r in step:
+            if r.kind == "position":
+                assert k * dt - r.t == pytest.approx(latency, abs=dt)
+    # the gyro bias is constant over the run: the mean error is that bias, not zero
+    _, x, _, rs = _suite_readings(2, steps=400, imu={"gyro_bias_rad_s": 0.05})
+    gyro = np.array([r.value for step in rs for r in step if r.kind == "gyro"])
+    assert np.linalg.norm(gyro.mean(axis=0) - x[9:12]) > 0.02
+
+
+def test_unknown_position_source_is_one_clear_error(tmp_path: Path) -> None:
+    from auvdock.mission import MissionError, parse_mission
+
+    with pytest.raises(MissionError) as e:
+        parse_mission({"name": "x", "sensors": {"position": {"source": "sonar"}}}, "m.yaml")
+    assert str(e.value).startswith("m.yaml: sensors.position.source: input should be 'none', 'acoustic'")
+
+
+@pytest.mark.parametrize("mission", ["tank_0p6hz", "diagonal"])
+def test_oracle_docks_on_the_navigation_filter(mission: str, tmp_path: Path) -> None:
+    m = load_mission(ROOT / "missions" / f"{mission}.yaml").with_updates(estimation="filter")
+    out = tmp_path / "run.h5"
+    s = simulate(m, out=out)
+    assert s.docked, s.outcome
+    r = read_run(out)
+    assert r.attrs["estimation"] == "filter"
+    ctrl = r.control_rows()
+    est, truth = r.extras["estimated_state"][ctrl], r.state[ctrl]
+    err = np.linalg.norm(est[:, 0:3] - truth[:, 0:3], axis=1)
+    assert np.all(np.isfinite(est))
+    assert 0.0 < np.median(err[20:]) < 0.05  # the controller flew on an estimate, a close one
+    flow_err = np.linalg.norm(r.extras["estimated_flow_ned_m_s"][ctrl][-1] - r.flow_ned_m_s[ctrl][-1])
+    assert flow_err < 0.1
