@@ -15,6 +15,7 @@ import numpy as np
 from .controllers import Controller, ControlOutput, Measurement, build_controller, resolve_solver
 from .controllers.registry import CONTROLLERS
 from .controllers.settings import MPCSettings
+from .controllers.status import STATUS_SETTLING
 from .dock import HeaveDock
 from .estimator import EstimatorSettings
 from .interrupts import SigintDeferred
@@ -98,6 +99,14 @@ class Autopilot:
         recorded: dict[str, np.ndarray] = {}
         if self.navigation is not None:
             meas, recorded = self.navigation.step(meas, self.u_prev)
+            if self.navigation.settling(meas.t):  # no control on a filter that has not settled
+                nan = {k: np.full(s, np.nan) for k, s in self.extra_series.items() if k not in recorded}
+                out = ControlOutput(
+                    np.zeros(self.vehicle.n_thrusters), STATUS_SETTLING, series={**nan, **recorded}
+                )
+                out.solve_time_s = time.perf_counter() - t0
+                self.u_prev = out.thrust.copy()
+                return out
         if not self.reads_true_flow:
             meas = Measurement(meas.t, meas.state, None, meas.sensors)
         out = self.controller.step(meas, self.u_prev)

@@ -61,6 +61,7 @@ class NavigationStage:
         self, settings: NavigationSettings, vehicle: Any, dt: float, start_guess: np.ndarray
     ) -> None:
         self.filter = NavigationFilter(settings, vehicle, dt)
+        self.settle_s = float(settings.settle_s)
         self.dt = float(dt)
         self.start_guess = np.asarray(start_guess, dtype=float).copy()
         rot = vehicle.model.function("rotation")
@@ -72,9 +73,17 @@ class NavigationStage:
         self.filter.reset(self.start_guess.copy())
         self._prev_lin: np.ndarray | None = None
         self.last: NavEstimate | None = None
+        self._t0: float | None = None
+
+    def settling(self, t: float) -> bool:
+        """Whether the controllers should still hold zero thrust at time ``t`` (s): the filter
+        has run for less than ``navigation.settle_s`` since the first reading."""
+        return self._t0 is not None and t < self._t0 + self.settle_s
 
     def step(self, meas: Measurement, u_prev: np.ndarray) -> tuple[Measurement, dict[str, np.ndarray]]:
         """The controllers' measurement from this step's readings, and the series to record."""
+        if self._t0 is None:
+            self._t0 = float(meas.t)
         est = self.filter.step(meas.t, list(meas.readings), u_prev)
         self.last = est
         x = np.asarray(est.state, dtype=float)

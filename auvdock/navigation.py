@@ -24,8 +24,9 @@ other), ``y = h(x, u, v_c)`` and ``H = dh/dz`` from :mod:`auvdock.measurements`,
 ``R = diag(std^2)``, Joseph form ``P <- (I - K H) P (I - K H)^T + K R K^T``; attitude
 residuals are wrapped to [-pi, pi), and so is the yaw estimate.
 
-Latency: a reading sampled before the step's time (``Reading.t < t``) is applied as if taken
-at ``t`` (no retrodiction); its age is not used.
+Latency: a reading sampled before the step's time (``Reading.t < t``) is applied at ``t``;
+position and depth readings are first carried forward over their age along the estimated
+velocity (no retrodiction of the whole filter).
 
 Cost: one CasADi call (predict, F, P propagation and every measurement's value and Jacobian
 at the predicted state) and a few small numpy products per step; compiled C when a C compiler
@@ -128,6 +129,12 @@ class NavigationSettings(Strict):
     prior_velocity_std_m_s: PosFloat = Field(default=0.5, description="prior body linear velocity std, m/s")
     prior_rate_std_rad_s: PosFloat = Field(default=0.2, description="prior body angular rate std, rad/s")
     substeps: int = Field(default=1, ge=1, le=20, description="RK4 steps per prediction period")
+    settle_s: float = Field(
+        default=2.0,
+        ge=0.0,
+        description="the controllers hold zero thrust for this long while the filter settles "
+        "from its prior (its first estimates can be metres per second off), s",
+    )
 
     def process_density(self) -> np.ndarray:
         """Diagonal of the process-noise density (20,): variance growth per second of each component."""
@@ -264,6 +271,7 @@ class NavigationFilter:
         for i, a in enumerate((self._out_z, self._out_P, self._out_y, self._out_Ht)):
             self._buf.set_res(i, memoryview(a))
         self._rows: dict[tuple[str, ...], np.ndarray] = {}
+        self._rotation = vehicle.model.function("rotation")
         #: Updates dropped because they would have made the estimate non-finite.
         self.rejected_updates = 0
         self.z = np.zeros(NZ)
@@ -349,7 +357,7 @@ class NavigationFilter:
                     [np.arange(_OFFSETS[k], _OFFSETS[k] + measurements.KINDS[k]) for k in key]
                 )
                 self._rows[key] = rows
-            values = np.concatenate([np.atleast_1d(np.asarray(r.value, dtype=float)) for r in readings])
+            values = np.concatenate([self._aged(r, float(t)) for r in readings])
             var = np.concatenate(
                 [
                     np.broadcast_to(np.asarray(r.std, dtype=float), (measurements.KINDS[r.kind],))
@@ -370,6 +378,21 @@ class NavigationFilter:
                 nis, n_meas = math.inf, 0
         self.z[YAW] = (self.z[YAW] + math.pi) % (2 * math.pi) - math.pi
         return self.estimate(nis, n_meas)
+
+    def _aged(self, r: Reading, t: float) -> np.ndarray:
+        """The reading's value carried from its sample time to ``t`` along the estimated motion.
+
+        A position fix ``age = t - r.t`` old is moved by ``age R(Theta) nu_1`` (a camera fix
+        0.1 s old of a vehicle at 0.5 m/s is 5 cm behind: five times its noise), a depth by
+        the estimated depth rate over the age; other kinds are used as they are.
+        """
+        value = np.atleast_1d(np.asarray(r.value, dtype=float))
+        age = t - float(r.t)
+        if age <= 0.0 or r.kind not in ("position", "depth"):
+            return value
+        R = np.asarray(self._rotation(self.z[ATT]))
+        v_ned = R @ self.z[LIN]
+        return value + age * (v_ned if r.kind == "position" else v_ned[2:3])
 
     def _update(self, rows: np.ndarray, values: np.ndarray, var: np.ndarray) -> tuple[float, int]:
         """Iterated EKF update (Gauss-Newton on the measurement model; Bell and Cathey 1993).

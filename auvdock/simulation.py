@@ -29,7 +29,7 @@ import numpy as np
 
 from .autopilot import Autopilot, build_autopilot
 from .controllers import Measurement
-from .controllers.status import STATUS_NAMES, STATUS_NO_STEP, STATUS_OK
+from .controllers.status import FAILURE_CODES, STATUS_NAMES, STATUS_NO_STEP
 from .geometry import wrap_angle
 from .interrupts import SigintDeferred
 from .mission import Mission
@@ -108,7 +108,7 @@ def run_outcome(
         "closest_approach_m": float(min(distances)) if distances else math.nan,
         "path_length_m": path_length,
         "n_steps": len(states),
-        "solver_failures": int(np.sum(np.asarray(statuses) != STATUS_OK)) if statuses else 0,
+        "solver_failures": int(np.sum(np.isin(statuses, FAILURE_CODES))) if statuses else 0,
         "solve_time_median_s": float(np.median(st)) if st.size else math.nan,
         "solve_time_p95_s": float(np.percentile(st, 95)) if st.size else math.nan,
         "solve_time_p99_s": float(np.percentile(st, 99)) if st.size else math.nan,

@@ -132,7 +132,14 @@ def test_attrs_round_trip(tmp_path: Path) -> None:
     assert r.controller == "flow_mpc"
     assert a["tolerance_m"] == 0.1
     assert {int(k): v for k, v in json.loads(a["solver_status_codes"]).items()} == STATUS_NAMES
-    assert STATUS_NAMES == {0: "ok", 1: "not_converged", 2: "failed", 3: "fallback_zero", 4: "no_step"}
+    assert STATUS_NAMES == {
+        0: "ok",
+        1: "not_converged",
+        2: "failed",
+        3: "fallback_zero",
+        4: "no_step",
+        5: "settling",
+    }
 
     out = r.outcome()
     assert set(out) == set(OUTCOME)

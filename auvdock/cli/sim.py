@@ -76,6 +76,12 @@ def sim(
     timeout: float | None = typer.Option(
         None, "--timeout", help="Simulated-time limit in s (default: the mission's)."
     ),
+    estimation: str | None = typer.Option(
+        None,
+        "--estimation",
+        help="truth (the paper's Assumption 1) or filter (the navigation filter on the sensor suite); "
+        "default: the mission's.",
+    ),
 ) -> None:
     """Run one closed-loop docking simulation: HDF5 results, summary table and plots."""
     from ..plots import plot_run
@@ -93,6 +99,10 @@ def sim(
         m = m.with_updates(seed=seed)
     if controller is not None:
         m = m.with_updates(**{"controller.type": controller})
+    if estimation is not None:
+        if estimation not in ("truth", "filter"):
+            fail_input(f"--estimation: must be truth or filter (got {estimation!r})")
+        m = m.with_updates(estimation=estimation)
     name = m.controller.type
     out_dir = out if out is not None else Path(m.output.dir)
     out_dir.mkdir(parents=True, exist_ok=True)

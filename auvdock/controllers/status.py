@@ -8,6 +8,7 @@ code   name                meaning
 2      ``failed``          it failed (or was not attempted: non-finite input); fallback
 3      ``fallback_zero``   it failed and there was no plan to fall back on: zero thrust
 4      ``no_step``         no controller step: the row records the run's final state
+5      ``settling``        no controller step: the navigation filter is settling, thrust zero
 =====  ==================  ===============================================================
 
 A controller that is not an optimiser reports ``ok``.  Results files store this table as
@@ -22,7 +23,9 @@ __all__ = [
     "STATUS_FAILED",
     "STATUS_FALLBACK_ZERO",
     "STATUS_NO_STEP",
+    "STATUS_SETTLING",
     "STATUS_NAMES",
+    "FAILURE_CODES",
 ]
 
 STATUS_OK = 0
@@ -30,6 +33,7 @@ STATUS_NOT_CONVERGED = 1
 STATUS_FAILED = 2
 STATUS_FALLBACK_ZERO = 3
 STATUS_NO_STEP = 4
+STATUS_SETTLING = 5
 
 #: Code -> name.
 STATUS_NAMES: dict[int, str] = {
@@ -38,4 +42,8 @@ STATUS_NAMES: dict[int, str] = {
     STATUS_FAILED: "failed",
     STATUS_FALLBACK_ZERO: "fallback_zero",
     STATUS_NO_STEP: "no_step",
+    STATUS_SETTLING: "settling",
 }
+
+#: The codes that count as solver trouble (``solver_failures`` of a run).
+FAILURE_CODES = (STATUS_NOT_CONVERGED, STATUS_FAILED, STATUS_FALLBACK_ZERO)
