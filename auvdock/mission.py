@@ -29,7 +29,6 @@ from pydantic import (
 )
 
 from .controllers.registry import controller_names, settings_for, settings_union
-from .controllers.settings import MPCSettings
 from .controllers.solvers import solver_names
 from .dock import HeaveDock
 from .estimator import EstimatorSettings
@@ -405,11 +404,6 @@ class Mission(Strict):
     def source(self) -> Path | None:
         """The mission file this mission was read from, if any."""
         return self._source
-
-    @property
-    def controller_settings(self) -> MPCSettings:
-        """The controller's settings (typed; the same object as ``controller``)."""
-        return self.controller
 
     def build_vehicle(self) -> Vehicle:
         """The vehicle the mission names, with its overrides."""

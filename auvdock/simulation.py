@@ -197,8 +197,10 @@ def simulate(
                 },
             )
 
-    sensors = SensorModel(mission.sensors, mission.seed, rot)
-    suite = SensorSuite(mission.sensors, vehicle, mission.seed) if ap.navigation is not None else None
+    if ap.navigation is None:  # estimation: truth -- the paper's sensing of [eta; nu_r]
+        sensors, suite = SensorModel(mission.sensors, mission.seed, rot), None
+    else:  # estimation: filter -- the sensor suite, read by the navigation filter
+        sensors, suite = None, SensorSuite(mission.sensors, vehicle, mission.seed)
     record_true_body_flow = "flow_body_true_m_s" in ap.extra_series
     no_step_extras = {name: np.full(shape, np.nan) for name, shape in ap.extra_series.items()}
     x = mission.start_state()
@@ -246,7 +248,7 @@ def simulate(
                 final_row(t, x, dist)
                 break
             v_c = flow.velocity(x[POS], t)
-            if suite is None:  # estimation: truth (the paper's Assumption 1)
+            if sensors is not None:  # estimation: truth (the paper's Assumption 1)
                 meas = Measurement(
                     t=t, state=x.copy(), flow_ned=v_c, sensors=sensors.read(x, x_prev, dt, v_c)
                 )

@@ -191,6 +191,18 @@ def test_no_vehicle_clear_error(loop, tmp_path) -> None:
     assert loop.clock.now() == pytest.approx(1.0, abs=0.25)  # simulated: no wall-clock wait
 
 
+def test_estimation_filter_is_refused_before_connecting(loop, tmp_path) -> None:
+    """fly does not map telemetry to the sensor suite yet: a filter would dead-reckon silently."""
+    mission = tmp_path / "filter.yaml"
+    mission.write_text(TANK.read_text() + "estimation: filter\n")
+    res = loop.fly(free_port(), tmp_path, "--arm", mission=mission)
+    assert res.exit_code == 2
+    assert res.stderr.strip() == (
+        f"error: {mission}: estimation: fly does not feed the navigation filter from telemetry yet; "
+        "use estimation: truth"
+    )
+
+
 def test_dock_from_landing_target(loop, tmp_path) -> None:
     """dock.source: mavlink -- the real dock is 0.3 m east of the model's; LANDING_TARGET leads there.
 

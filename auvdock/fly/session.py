@@ -141,8 +141,9 @@ class FlySession:
     Raises
     ------
     MissionError
-        A camera file that is missing or bad, or a vehicle that is not an 8-thruster
-        BlueROV2 Heavy (ArduSub VECTORED_6DOF).
+        A camera file that is missing or bad, a vehicle that is not an 8-thruster
+        BlueROV2 Heavy (ArduSub VECTORED_6DOF), or ``estimation: filter`` (not fed from
+        telemetry yet).
     """
 
     def __init__(
@@ -189,6 +190,14 @@ class FlySession:
                 "vehicle",
                 f"fly flies ArduSub's VECTORED_6DOF frame (8 thrusters, BlueROV2 Heavy); "
                 f"{self.vehicle.name} has {self.vehicle.n_thrusters}",
+            )
+        if mission.estimation != "truth":
+            # the telemetry is not yet mapped to the sensor suite's readings: the navigation
+            # filter would get none and dead-reckon on the model alone, silently
+            raise MissionError(
+                mission.source or mission.name,
+                "estimation",
+                "fly does not feed the navigation filter from telemetry yet; use estimation: truth",
             )
         self._model_dock: HeaveDock = mission.build_dock()
         self.dock: HeaveDock | TrackedDock = self._model_dock
