@@ -58,14 +58,14 @@ def main() -> None:
         a = pc()
         nav._evaluate(dt)
         t_pred.append(pc() - a)
-    rows = nav._rows[tuple(r.kind for r in steps[1])]
+    rows, ang = nav._rows[tuple(r.kind for r in steps[1])]
     vals = np.concatenate([r.value for r in steps[1]])
     var = np.concatenate([r.std for r in steps[1]]) ** 2
     P0, z0 = nav.P.copy(), nav.z.copy()
     for _ in range(min(2000, args.steps)):
         nav.P[:], nav.z[:] = P0, z0
         a = pc()
-        nav._update(rows, vals, var)
+        nav._update(rows, vals, var, ang)
         t_upd.append(pc() - a)
 
     def show(name: str, ts: list[float]) -> None:
