@@ -74,6 +74,7 @@ class Autopilot:
         self.solver = resolve_solver(settings.solver.name, self.name)
         self.reads_true_flow = CONTROLLERS[self.name].reads_true_flow
         self.u_prev = np.zeros(vehicle.n_thrusters)
+        self.u_applied = np.zeros(vehicle.n_thrusters)
         self.build_time_s = time.perf_counter() - t0
 
     @property
@@ -92,13 +93,21 @@ class Autopilot:
         if self.navigation is not None:
             self.navigation.reset()
         self.u_prev = np.zeros(self.vehicle.n_thrusters)
+        self.u_applied = np.zeros(self.vehicle.n_thrusters)
+
+    def set_applied(self, thrust: np.ndarray) -> None:
+        """The thrust (n,, N) the thrusters really produce over the coming period, where the
+        actuator path changes the command (``fly``: ArduSub's six override channels, its mixer
+        and the thrusters' dead band; zero while disarmed).  The estimation stage predicts with
+        it; by default it is the command (``sim``)."""
+        self.u_applied = np.asarray(thrust, dtype=float).copy()
 
     def step(self, meas: Measurement) -> ControlOutput:
         """One control step: estimate, solve, and return the thrust to hold for one period."""
         t0 = time.perf_counter()
         recorded: dict[str, np.ndarray] = {}
         if self.navigation is not None:
-            meas, recorded = self.navigation.step(meas, self.u_prev)
+            meas, recorded = self.navigation.step(meas, self.u_applied)
             if self.navigation.settling(meas.t):  # no control on a filter that has not settled
                 nan = {k: np.full(s, np.nan) for k, s in self.extra_series.items() if k not in recorded}
                 out = ControlOutput(
@@ -106,6 +115,7 @@ class Autopilot:
                 )
                 out.solve_time_s = time.perf_counter() - t0
                 self.u_prev = out.thrust.copy()
+                self.u_applied = out.thrust.copy()
                 return out
         if not self.reads_true_flow:
             meas = Measurement(meas.t, meas.state, None, meas.sensors)
@@ -113,6 +123,7 @@ class Autopilot:
         out.series.update(recorded)
         out.solve_time_s = time.perf_counter() - t0
         self.u_prev = out.thrust.copy()
+        self.u_applied = out.thrust.copy()
         return out
 
 

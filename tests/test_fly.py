@@ -112,7 +112,7 @@ def test_lost_telemetry_neutral_then_abort(loop, tmp_path) -> None:
     clock.start_thread(pause_later, "pause-telemetry")
     res = loop.fly(port, tmp_path, "--arm", "--timeout", "30")
     assert res.exit_code == 3, res.output
-    assert "aborted: telemetry lost: no ATTITUDE or position for" in res.stderr
+    assert "aborted: telemetry lost: no ATTITUDE, LOCAL_POSITION_NED for" in res.stderr
     assert len(res.stderr.strip().splitlines()) == 1
     assert paused_at
     # neutral within 0.35 s of the last telemetry (stale after 0.3 s), then released
@@ -191,15 +191,15 @@ def test_no_vehicle_clear_error(loop, tmp_path) -> None:
     assert loop.clock.now() == pytest.approx(1.0, abs=0.25)  # simulated: no wall-clock wait
 
 
-def test_estimation_filter_is_refused_before_connecting(loop, tmp_path) -> None:
-    """fly does not map telemetry to the sensor suite yet: a filter would dead-reckon silently."""
-    mission = tmp_path / "filter.yaml"
-    mission.write_text(TANK.read_text() + "estimation: filter\n")
-    res = loop.fly(free_port(), tmp_path, "--arm", mission=mission)
+def test_flow_estimating_controller_on_truth_is_refused_before_connecting(loop, tmp_path) -> None:
+    """No vehicle has the paper's water-relative velocity sensor (estimation: truth in sim): an
+    FSE controller flies only on the navigation filter, and says so before connecting."""
+    res = loop.fly(free_port(), tmp_path, "--arm", "-c", "sequential")
     assert res.exit_code == 2
     assert res.stderr.strip() == (
-        f"error: {mission}: estimation: fly does not feed the navigation filter from telemetry yet; "
-        "use estimation: truth"
+        f"error: {TANK}: estimation: sequential learns the current from the vehicle's sensors; on a "
+        "vehicle that needs estimation: filter (truth is the paper's simulated water-relative "
+        "velocity sensor)"
     )
 
 

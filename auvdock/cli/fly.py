@@ -117,6 +117,11 @@ def vehicle_sim(
         None, "--mission", "-m", help="Mission for the start state, vehicle and flow (default: tank_0p6hz)."
     ),
     speed: float = typer.Option(1.0, "--speed", min=0.01, help="Simulated seconds per wall-clock second."),
+    noise: bool = typer.Option(
+        True,
+        "--sensor-noise/--no-sensor-noise",
+        help="Telemetry with the mission's sensor errors (IMU noise and biases, attitude, depth, position).",
+    ),
 ) -> None:
     """Run auvdock's 6-DOF simulator as an ArduSub MAVLink vehicle (for rehearsing and testing fly)."""
     from ..catalog import missions_dir
@@ -126,10 +131,11 @@ def vehicle_sim(
     m = load_or_exit(path)
     console.print(
         f"[bold]vehicle-sim[/bold]: ArduSub-like BlueROV2 (sysid 1) on {port}, mission {m.name}, "
-        f"speed {speed:g}x; Ctrl-C to stop"
+        f"speed {speed:g}x, flow {m.build_flow().describe()}, sensor noise {'on' if noise else 'off'}; "
+        "Ctrl-C to stop"
     )
     try:
-        sim = VehicleSim(m, port=port, speed=speed, clock=clock)
+        sim = VehicleSim(m, port=port, speed=speed, clock=clock, noise=noise)
         sim.run_forever()
     except OSError as e:
         fail_input(f"--port {port}: {e}")

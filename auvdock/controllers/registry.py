@@ -65,6 +65,10 @@ class ControllerEntry:
         Whether its definition gives it the true flow (Assumption 3); outputs say so.
     summary : str
         One line for listings.
+    estimates_flow : bool
+        Whether it learns the current itself from the sensors (the FSE controllers' flow
+        filter, paper IV.A): it then needs the water-relative velocity, which only the
+        estimation stage (or the paper's simulated sensor, ``estimation: truth`` in sim) gives.
     """
 
     name: str
@@ -73,6 +77,7 @@ class ControllerEntry:
     auto_solver: str
     reads_true_flow: bool
     summary: str
+    estimates_flow: bool = False
 
 
 def _baseline(settings, vehicle, dock, solver, estimator, sensors) -> Controller:
@@ -93,9 +98,23 @@ CONTROLLERS: dict[str, ControllerEntry] = {
         ),
         ControllerEntry("oracle", OracleSettings, _baseline, "rti", True, "MPC, full model, true current"),
         ControllerEntry(
-            "sequential", SequentialSettings, _fse, "sqp", False, "FSE-MPC: perception law (9), then MPC"
+            "sequential",
+            SequentialSettings,
+            _fse,
+            "sqp",
+            False,
+            "FSE-MPC: perception law (9), then MPC",
+            estimates_flow=True,
         ),
-        ControllerEntry("optimized", OptimizedSettings, _fse, "rti", False, "FSE-MPC: cost (10) - alpha F"),
+        ControllerEntry(
+            "optimized",
+            OptimizedSettings,
+            _fse,
+            "rti",
+            False,
+            "FSE-MPC: cost (10) - alpha F",
+            estimates_flow=True,
+        ),
     )
 }
 

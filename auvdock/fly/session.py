@@ -3,15 +3,26 @@
 The session in named steps (:meth:`FlySession.run`)::
 
     _connect          wait for the ArduSub HEARTBEAT, request the telemetry rates
-    _wait_telemetry   wait for ATTITUDE and LOCAL_POSITION_NED
+    _wait_telemetry   wait for the telemetry the estimation needs (TelemetrySensors.required)
     _set_frame        map the vehicle's pose onto the mission's start
     _start_camera     (dock.source: camera) the frame source and the detection thread
     _arm              --arm: MANUAL mode, arm; else a dry run
     _open_results     the results file
     _control_loop     every dt, on the session's clock: _step
-        _step             _check_telemetry -> state -> _check_geofence -> camera -> _check_landing_target
-                          -> docked? -> _control (controller step, RC override, one row)
+        _step             _take_telemetry -> _check_telemetry -> state -> _check_geofence -> camera
+                          -> _check_landing_target -> docked? -> _control (the controller-and-
+                          estimator step on the sensor readings, RC override, one row)
     _finish           the one ending: neutral, release, disarm if we armed, link closed, outcome written
+
+What the controller knows comes through :class:`auvdock.fly.telemetry.TelemetrySensors`:
+the vehicle's messages received since the last step are taken from the link at once
+(:meth:`MavlinkLink.drain`, which marks the moment in the tlog), so that ``auvdock replay``
+can hand the same session code the same messages at the same steps and reproduce its
+outputs.  With ``estimation: filter`` the navigation filter reads the sensor readings (IMU,
+attitude, depth, the position source); with ``truth`` the controller takes the autopilot's
+own estimate (ATTITUDE, LOCAL_POSITION_NED) as the state.  Oracle and Kinematic MPC read the
+mission's flow model as their forecast of the current (their definition; the events say so);
+no other controller ever sees it.
 
 Safety (each ends the session the same way, :meth:`FlySession._finish`): nothing is armed
 without ``arm=True``; telemetry older than ``fly.stale_neutral_s``: neutral at once, older
@@ -39,17 +50,18 @@ from pymavlink import mavutil
 from ..autopilot import build_autopilot
 from ..clock import Clock
 from ..controllers import Measurement
+from ..controllers.registry import CONTROLLERS
 from ..controllers.status import STATUS_NAMES, STATUS_NO_STEP
 from ..dock import HeaveDock, TrackedDock
 from ..geometry import rotation_zyx
-from ..hardware.ardusub import NEUTRAL_CHANNELS, channels_for_thrust
+from ..hardware.ardusub import NEUTRAL_CHANNELS, channels_for_thrust, thrust_from_channels
 from ..hardware.link import LinkError, MavlinkLink
 from ..interrupts import SigintDeferred
 from ..mission import Mission, MissionError
 from ..vehicle.state import ATT, POS
 from .camera import CAMERA_SERIES, CameraOpenError, CameraTracking
 from .record import FlyRecorder
-from .telemetry import TELEMETRY_MESSAGES, MissionFrame, geofence_violation, sensors_from_telemetry
+from .telemetry import TELEMETRY_MESSAGES, TelemetrySensors, geofence_violation
 
 __all__ = ["FlySession", "FlyResult", "FlyAbortError"]
 
@@ -142,8 +154,9 @@ class FlySession:
     ------
     MissionError
         A camera file that is missing or bad, a vehicle that is not an 8-thruster
-        BlueROV2 Heavy (ArduSub VECTORED_6DOF), or ``estimation: filter`` (not fed from
-        telemetry yet).
+        BlueROV2 Heavy (ArduSub VECTORED_6DOF), or a flow-estimating controller with
+        ``estimation: truth`` (the paper's simulated sensing of the water-relative
+        velocity, which no vehicle has).
     """
 
     def __init__(
@@ -172,7 +185,8 @@ class FlySession:
         self.events: list[tuple[float, str]] = []
         self.camera: CameraTracking | None = None
         self._t0 = self.clock.now()
-        self._frame: MissionFrame | None = None
+        self._frame: Any = None
+        self._now_us = 0
         self._rec: FlyRecorder | None = None
         self._we_armed = False
         self._last_target: int | None = None
@@ -191,14 +205,15 @@ class FlySession:
                 f"fly flies ArduSub's VECTORED_6DOF frame (8 thrusters, BlueROV2 Heavy); "
                 f"{self.vehicle.name} has {self.vehicle.n_thrusters}",
             )
-        if mission.estimation != "truth":
-            # the telemetry is not yet mapped to the sensor suite's readings: the navigation
-            # filter would get none and dead-reckon on the model alone, silently
+        name = controller or mission.controller.type
+        if mission.estimation == "truth" and CONTROLLERS[name].estimates_flow:
             raise MissionError(
                 mission.source or mission.name,
                 "estimation",
-                "fly does not feed the navigation filter from telemetry yet; use estimation: truth",
+                f"{name} learns the current from the vehicle's sensors; on a vehicle that needs "
+                "estimation: filter (truth is the paper's simulated water-relative velocity sensor)",
             )
+        self.telemetry = TelemetrySensors(mission.sensors, mission.estimation)
         self._model_dock: HeaveDock = mission.build_dock()
         self.dock: HeaveDock | TrackedDock = self._model_dock
         if mission.dock.source == "mavlink":
@@ -265,6 +280,8 @@ class FlySession:
             self.link.connect(timeout_s=self.connect_timeout_s)
         except LinkError as e:
             raise FlyAbortError(str(e)) from None
+        # in the tlog only: what replay needs to rebuild this session
+        self.link.note(f"auvdock fly {self.autopilot.name} dt={self.dt:g} timeout={self.timeout_s:g}")
         rate = self.mission.fly.telemetry_rate_hz
         for name in TELEMETRY_MESSAGES:
             msg_id = getattr(mavutil.mavlink, f"MAVLINK_MSG_ID_{name}")
@@ -274,28 +291,50 @@ class FlySession:
             except LinkError as e:
                 self._event(f"rate {name}: {e}")
             self.link.send_neutral()
+        m = self.mission
+        name = self.autopilot.name
+        if m.estimation == "filter":
+            pos = m.sensors.position.source
+            what = "IMU, attitude, depth" + ("" if pos == "none" else f" and position ({pos})")
+            self._event(f"estimation: filter (the navigation filter on the {what})")
+        else:
+            self._event("estimation: truth (the autopilot's ATTITUDE and LOCAL_POSITION_NED as the state)")
+        if self.autopilot.reads_true_flow:
+            self._event(
+                f"{name} reads the mission's flow model as its forecast of the current: "
+                f"{self.flow.describe()}"
+            )
+
+    def _take_telemetry(self, marker: str, value: int = 0) -> int:
+        """The messages received since the last call into :attr:`telemetry`; returns now (us,
+        the tlog's clock).  The link marks the moment in the tlog (for replay)."""
+        now_us, messages = self.link.drain(marker, value)
+        self.telemetry.feed(messages)
+        return now_us
 
     def _wait_telemetry(self) -> None:
-        """Stream neutral overrides until ATTITUDE and LOCAL_POSITION_NED arrive."""
+        """Stream neutral overrides until the telemetry the estimation needs arrives."""
         clock = self.clock
         deadline = clock.now() + self.connect_timeout_s
         while clock.now() < deadline:
             self.link.send_neutral()
-            if self._stale() < 0.5:
+            now_us = self._take_telemetry("auvd_wait")
+            if not self.telemetry.missing() and self.telemetry.age_s(now_us) < 0.5:
                 return
             clock.sleep(self.dt)
+        missing = self.telemetry.missing() or ["fresh " + " and ".join(
+            "/".join(g) for g in self.telemetry.required)]  # fmt: skip
+        hint = " (does the autopilot have a position source and origin?)" if any(
+            "LOCAL_POSITION_NED" in name for name in missing) else ""  # fmt: skip
         raise FlyAbortError(
-            f"no ATTITUDE and LOCAL_POSITION_NED from {self.link.port} within {self.connect_timeout_s:g} s "
-            "(does the autopilot have a position source and origin?)"
+            f"no {', '.join(missing)} from {self.link.port} within {self.connect_timeout_s:g} s{hint}"
         )
 
     def _set_frame(self) -> None:
         """Map the vehicle's current pose onto the mission's start pose."""
-        att, _ = self.link.latest("ATTITUDE")
-        pos, _ = self.link.latest("LOCAL_POSITION_NED")
-        p, psi = np.array([pos.x, pos.y, pos.z]), float(att.yaw)
-        self._frame = MissionFrame.at_start(p, psi, self.mission.start_state())
-        self._event(self._frame.describe(p, psi))
+        self._take_telemetry("auvd_frame")
+        self._frame = self.telemetry.set_frame(self.mission.start_state())
+        self._event(self.telemetry.describe_frame())
 
     def _start_camera(self) -> None:
         """dock.source: camera -- open the frame source and start detecting."""
@@ -340,6 +379,11 @@ class FlySession:
                 "vehicle": self.vehicle.name,
                 "solver": self.autopilot.solver,
                 "reads_true_flow": self.autopilot.reads_true_flow,
+                "estimation": m.estimation,
+                # the map from the autopilot's NED frame to the mission's (MissionFrame)
+                "frame_heading_offset_rad": self._frame.dpsi,
+                "frame_vehicle_start_m": self._frame.p_vehicle0,
+                "frame_mission_start_m": self._frame.p_mission0,
                 "source": f"fly {self.link.port}" + ("" if self.arm_vehicle else " (dry run)"),
             },
         )
@@ -352,14 +396,15 @@ class FlySession:
         k = 0
         while (t := k * self.dt) <= self.timeout_s + 1e-9:
             self.clock.sleep_until(t_start + t)
-            ending = self._step(t)
+            ending = self._step(t, k)
             if ending is not None:
                 return ending
             k += 1
         return _Ending("timeout", f"not docked within {self.timeout_s:g} s", t_end=self._t_end)
 
-    def _step(self, t: float) -> _Ending | None:
-        """One control step at mission time ``t``; an ending (docked) or None."""
+    def _step(self, t: float, k: int) -> _Ending | None:
+        """Control step ``k`` at mission time ``t``; an ending (docked) or None."""
+        self._now_us = self._take_telemetry("auvd_step", k)
         if self._check_telemetry():
             return None
         x = self._state()
@@ -392,20 +437,27 @@ class FlySession:
         return None
 
     def _control(self, t: float, x: np.ndarray, dist: float, camera_series: dict[str, np.ndarray]) -> None:
-        """The controller step on the telemetry, its thrust as RC overrides, one results row."""
+        """The controller-and-estimator step on the sensor readings, its thrust as RC overrides,
+        one results row.  The mission's flow model is handed on as a forecast; the Autopilot
+        strips it for every controller whose definition does not read it."""
         v_c = self.flow.velocity(x[POS], t)
-        imu, age = self.link.latest("SCALED_IMU2")
-        sensors, f_b = sensors_from_telemetry(x, v_c, imu if imu is not None and age < 0.5 else None)
+        readings = self.telemetry.readings(t)
+        f_b = self.telemetry.specific_force
         with SigintDeferred():  # a whole controller step (CasADi may swallow a KeyboardInterrupt)
-            out = self.autopilot.step(Measurement(t=t, state=x, flow_ned=v_c, sensors=sensors))
+            out = self.autopilot.step(Measurement(t=t, state=x, flow_ned=v_c, readings=readings))
         channels = channels_for_thrust(out.thrust, self.vehicle.allocation)
+        telemetry = self._telemetry()
         if self.arm_vehicle:
             self.link.send_override(channels)
         else:
             self.link.send_neutral()
+        # what the thrusters will really push (ArduSub's channel path; nothing while disarmed)
+        sent = channels if self.arm_vehicle else NEUTRAL_CHANNELS
+        applied = thrust_from_channels(sent) if telemetry["armed"] else np.zeros(self.vehicle.n_thrusters)
+        self.autopilot.set_applied(applied)
         series = dict(out.series)
-        if "flow_body_true_m_s" in self.autopilot.extra_series:
-            series["flow_body_true_m_s"] = _rotation(x[ATT]).T @ v_c
+        if "flow_body_true_m_s" in self.autopilot.extra_series:  # unknown on a vehicle
+            series["flow_body_true_m_s"] = np.full(3, np.nan)
         self._rec.flown(
             t,
             x,
@@ -413,7 +465,7 @@ class FlySession:
             out,
             channels=channels if self.arm_vehicle else NEUTRAL_CHANNELS,
             specific_force=f_b,
-            telemetry=self._telemetry(),
+            telemetry=telemetry,
             series={**series, **camera_series},
         )
         self._t_end = t
@@ -426,7 +478,8 @@ class FlySession:
         stale = self._stale()
         fly = self.mission.fly
         if stale > fly.stale_abort_s:
-            raise FlyAbortError(f"telemetry lost: no ATTITUDE or position for {stale:.1f} s")
+            names = [n for n, age in self.telemetry.ages(self._now_us).items() if age > fly.stale_abort_s]
+            raise FlyAbortError(f"telemetry lost: no {', '.join(names)} for {stale:.1f} s")
         if stale > fly.stale_neutral_s:
             self.link.send_neutral()
             if not self.events or not self.events[-1][1].startswith("telemetry stale"):
@@ -462,9 +515,10 @@ class FlySession:
         MAV_FRAME_LOCAL_NED (the autopilot's NED frame, mapped to the mission frame).
         Messages without ``position_valid`` are ignored.
         """
-        lt, age = self.link.latest("LANDING_TARGET")
+        lt, stamp = self.telemetry.latest("LANDING_TARGET")
         if lt is None or not getattr(lt, "position_valid", 0):
             return float("inf")
+        age = (self._now_us - stamp) * 1e-6
         if id(lt) == self._last_target:
             return age
         self._last_target = id(lt)
@@ -480,20 +534,21 @@ class FlySession:
 
     # -- telemetry --------------------------------------------------------------------------
     def _stale(self) -> float:
-        _, a = self.link.latest("ATTITUDE")
-        _, p = self.link.latest("LOCAL_POSITION_NED")
-        return max(a, p)
+        """Age (s) of the stalest telemetry the estimation needs, at this step's drain."""
+        return self.telemetry.age_s(self._now_us)
 
     def _state(self) -> np.ndarray:
-        """The vehicle state (12,) in the mission frame from the latest telemetry."""
-        att, _ = self.link.latest("ATTITUDE")
-        pos, _ = self.link.latest("LOCAL_POSITION_NED")
-        return self._frame.state(att, pos)
+        """The autopilot's estimate of the state (12,) in the mission frame (latest telemetry)."""
+        return self.telemetry.state()
 
     def _telemetry(self) -> dict[str, Any]:
-        _, age_a = self.link.latest("ATTITUDE")
-        _, age_p = self.link.latest("LOCAL_POSITION_NED")
-        return {"age_s": np.array([age_a, age_p]), "armed": self.link.armed}
+        ages = []
+        for mtype in ("ATTITUDE", "LOCAL_POSITION_NED"):
+            _, stamp = self.telemetry.latest(mtype)
+            ages.append(np.inf if stamp is None else (self._now_us - stamp) * 1e-6)
+        hb, _ = self.telemetry.latest("HEARTBEAT")
+        armed = hb is not None and bool(hb.base_mode & mavutil.mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
+        return {"age_s": np.array(ages), "armed": armed}
 
     def _event(self, text: str) -> None:
         self.events.append((self.clock.now() - self._t0, text))

@@ -1,10 +1,38 @@
-"""Telemetry to the mission frame: the vehicle's pose mapped onto the mission's start, and the sensors.
+"""Telemetry as the sensor interface: ArduSub's messages mapped into the mission frame and
+turned into the sensor suite's readings.
 
 The mission is written in its own NED frame, in which the vehicle starts at ``start.state``.
 The vehicle's telemetry (LOCAL_POSITION_NED, ATTITUDE) is in the autopilot's frame; at the
 start of a session :class:`MissionFrame` maps the vehicle's pose onto the mission's start
 pose (a translation and a rotation about down), and every later reading through the same
 map.
+
+:class:`TelemetrySensors` is the third source of the one sensor interface (beside the
+simulated suite, :class:`auvdock.sensors.SensorSuite`): fed the vehicle's messages as they
+were received, it gives, per control step, the :class:`auvdock.navigation.Reading` s of the
+messages that are new since the last step, one definition per measurement kind
+(:mod:`auvdock.measurements`):
+
+=============================  ==========  =================================================
+message                        kind        value
+=============================  ==========  =================================================
+ATTITUDE                       attitude    roll, pitch, yaw + the frame's heading offset, rad
+SCALED_IMU2 (else RAW_IMU)     accel       xacc, yacc, zacc: specific force in {b}, mG -> m/s^2
+SCALED_IMU2 (else RAW_IMU)     gyro        xgyro, ygyro, zgyro, mrad/s -> rad/s
+SCALED_PRESSURE2 (else         depth       the depth change since the frame was set (pressure,
+VFR_HUD)                                   sea water; VFR_HUD: minus alt) + the start depth, m
+LOCAL_POSITION_NED             position    x, y, z mapped into the mission frame, m
+                                           (when ``sensors.position.source`` is not none:
+                                           ArduSub's EKF fed by a DVL, acoustic positioning...)
+LOCAL_POSITION_NED             dvl         vx, vy, vz rotated into {b} (``sensors.dvl.enabled``)
+=============================  ==========  =================================================
+
+The body-frame quantities (IMU) do not change with the frame (a rotation about down).  Each
+reading's standard deviation is the mission's figure for its sensor (``sensors.*``), the IMU's
+with the rounding to whole mG / mrad/s added (:mod:`auvdock.hardware.units`).  A reading is
+stamped with the control step's time: ArduSub's attitude, pressure and EKF position are
+current when sent.  The same object serves ``fly`` (fed from the link at each step) and
+``replay`` (fed from the tlog up to each step's marker), so both see the same readings.
 """
 
 from __future__ import annotations
@@ -16,13 +44,16 @@ from typing import Any
 import numpy as np
 
 from ..geometry import Rz, rotation_zyx, wrap_angle
-from ..vehicle.state import ANG, ATT, ETA, LIN
+from ..hardware.units import ACCEL_LSB_STD_M_S2, GYRO_LSB_STD_RAD_S, MG_M_S2, MRAD_S, depth_from_pressure
+from ..navigation import Reading
+from ..sensors import SensorSettings
 
-__all__ = ["G", "TELEMETRY_MESSAGES", "MissionFrame", "sensors_from_telemetry", "geofence_violation"]
+__all__ = ["TELEMETRY_MESSAGES", "MissionFrame", "TelemetrySensors", "geofence_violation"]
 
-G = 9.80665
 #: The streams a session requests (MAV_CMD_SET_MESSAGE_INTERVAL) at ``fly.telemetry_rate_hz``.
 TELEMETRY_MESSAGES = ("ATTITUDE", "LOCAL_POSITION_NED", "SCALED_IMU2", "SCALED_PRESSURE2", "SERVO_OUTPUT_RAW")
+_IMU_TYPES = ("SCALED_IMU2", "RAW_IMU")
+_DEPTH_TYPES = ("SCALED_PRESSURE2", "VFR_HUD")
 
 
 def _rotation(angles: np.ndarray) -> np.ndarray:
@@ -78,30 +109,6 @@ class MissionFrame:
         )
 
 
-def sensors_from_telemetry(
-    x: np.ndarray, flow_ned: np.ndarray, imu: Any | None
-) -> tuple[dict[str, np.ndarray], np.ndarray]:
-    """The controller's sensors from the state and SCALED_IMU2 (None if missing or stale).
-
-    Returns the sensor dict of :class:`auvdock.controllers.Measurement` and the specific force
-    (3,) m/s^2 in {b} (NaN without a fresh IMU message).  ``accel_m_s2`` is d(nu_1)/dt:
-    the accelerometer's specific force plus gravity in {b}, minus ``nu_2 x nu_1``.
-    """
-    R = _rotation(x[ATT])
-    sensors: dict[str, np.ndarray] = {
-        "pose": x[ETA].copy(),
-        "gyro_rad_s": x[ANG].copy(),
-        "depth_rate_m_s": np.asarray(float(R[2] @ x[LIN])),
-        "relative_velocity_m_s": x[LIN] - R.T @ flow_ned,
-    }
-    f_b = np.full(3, np.nan)
-    if imu is not None:
-        f_b = np.array([imu.xacc, imu.yacc, imu.zacc]) * G / 1000.0  # mG -> m/s^2
-        a_b = f_b + R.T @ np.array([0.0, 0.0, G])  # acceleration over ground in {b}
-        sensors["accel_m_s2"] = a_b - np.cross(x[ANG], x[LIN])
-    return sensors, f_b
-
-
 def geofence_violation(fence: Any, x: np.ndarray, p_start: np.ndarray) -> str | None:
     """Why the state ``x`` is outside ``fly.geofence`` (distance from ``p_start``, depths), or None."""
     horiz = float(np.linalg.norm(x[0:2] - p_start[0:2]))
@@ -112,3 +119,148 @@ def geofence_violation(fence: Any, x: np.ndarray, p_start: np.ndarray) -> str | 
     if x[2] > fence.max_depth_m:
         return f"geofence: depth {x[2]:.2f} m below the maximum {fence.max_depth_m:g} m"
     return None
+
+
+def _depth_of(msg: Any) -> float:
+    """Depth (m, down) from SCALED_PRESSURE2 (absolute pressure) or VFR_HUD (alt, up)."""
+    if msg.get_type() == "VFR_HUD":
+        return -float(msg.alt)
+    return depth_from_pressure(msg.press_abs)
+
+
+class TelemetrySensors:
+    """The vehicle's MAVLink telemetry as the sensor interface (see the module docstring).
+
+    Parameters
+    ----------
+    sensors : SensorSettings
+        The mission's sensor suite: which position source and DVL the vehicle has, and the
+        noise figures the readings carry.
+    estimation : str
+        ``"truth"``: the state is the autopilot's own estimate (ATTITUDE and
+        LOCAL_POSITION_NED); ``"filter"``: the navigation filter reads :meth:`readings`.
+    """
+
+    def __init__(self, sensors: SensorSettings, estimation: str) -> None:
+        self.sensors = sensors
+        self.estimation = estimation
+        self._latest: dict[str, tuple[Any, int]] = {}
+        self._new: dict[str, Any] = {}
+        self.frame: MissionFrame | None = None
+        self._depth0: float | None = None
+        self._depth_type: str | None = None
+        self.specific_force = np.full(3, np.nan)
+        s = sensors
+        self._std = {
+            "attitude": np.array([s.ahrs.roll_pitch_std_rad] * 2 + [s.ahrs.yaw_std_rad]),
+            "gyro": np.full(3, math.hypot(s.imu.gyro_noise_rad_s, GYRO_LSB_STD_RAD_S)),
+            "accel": np.full(3, math.hypot(s.imu.accel_noise_m_s2, ACCEL_LSB_STD_M_S2)),
+            "depth": np.array([s.depth.std_m]),
+            "position": np.full(3, s.position.figures()[2]),
+            "dvl": np.full(3, s.dvl.std_m_s),
+        }
+
+    @property
+    def required(self) -> tuple[tuple[str, ...], ...]:
+        """The telemetry a session waits for and keeps fresh: groups of message types, one of
+        each group (ATTITUDE and LOCAL_POSITION_NED always; with ``filter`` an IMU message and
+        a depth message too)."""
+        groups: tuple[tuple[str, ...], ...] = (("ATTITUDE",), ("LOCAL_POSITION_NED",))
+        if self.estimation == "filter":
+            groups += (_IMU_TYPES, _DEPTH_TYPES)
+        return groups
+
+    def missing(self) -> list[str]:
+        """The required telemetry not received yet, by name (``A or B`` for a group)."""
+        return [" or ".join(g) for g in self.required if not any(m in self._latest for m in g)]
+
+    def ages(self, now_us: int) -> dict[str, float]:
+        """Per required group (``A or B``), the age (s) at ``now_us`` (the tlog's clock, us) of
+        its newest message (``inf`` if none has come)."""
+        out = {}
+        for g in self.required:
+            stamps = [self._latest[m][1] for m in g if m in self._latest]
+            out[" or ".join(g)] = (now_us - max(stamps)) * 1e-6 if stamps else math.inf
+        return out
+
+    def age_s(self, now_us: int) -> float:
+        """Age (s) at ``now_us`` of the stalest required telemetry (:meth:`ages`)."""
+        return max(self.ages(now_us).values())
+
+    # -- input --------------------------------------------------------------------------------
+    def feed(self, messages: list[tuple[int, Any]]) -> None:
+        """Take the messages received since the last call, ``(stamp us, message)`` in order."""
+        for stamp, msg in messages:
+            mtype = msg.get_type()
+            self._latest[mtype] = (msg, int(stamp))
+            self._new[mtype] = msg
+
+    def latest(self, mtype: str) -> tuple[Any, int | None]:
+        """The latest message of a type and its stamp (us), or ``(None, None)``."""
+        item = self._latest.get(mtype)
+        return (None, None) if item is None else item
+
+    # -- the frame and the state -------------------------------------------------------------
+    def set_frame(self, x0: np.ndarray) -> MissionFrame:
+        """Map the vehicle's current pose (latest ATTITUDE, LOCAL_POSITION_NED) onto the mission
+        start ``x0`` (12,); the depth sensor's reading now becomes the start depth."""
+        att, _ = self.latest("ATTITUDE")
+        pos, _ = self.latest("LOCAL_POSITION_NED")
+        p, psi = np.array([pos.x, pos.y, pos.z]), float(att.yaw)
+        self.frame = MissionFrame.at_start(p, psi, x0)
+        for mtype in _DEPTH_TYPES:
+            msg, _ = self.latest(mtype)
+            if msg is not None:
+                self._depth_type, self._depth0 = mtype, _depth_of(msg)
+                break
+        self._new.clear()  # readings start after the frame
+        return self.frame
+
+    def describe_frame(self) -> str:
+        att, _ = self.latest("ATTITUDE")
+        pos, _ = self.latest("LOCAL_POSITION_NED")
+        return self.frame.describe(np.array([pos.x, pos.y, pos.z]), float(att.yaw))
+
+    def state(self) -> np.ndarray:
+        """The autopilot's estimate of the state (12,) in the mission frame (latest ATTITUDE and
+        LOCAL_POSITION_NED): the geofence and the docking check act on it, and with
+        ``estimation: truth`` the controller too."""
+        att, _ = self.latest("ATTITUDE")
+        pos, _ = self.latest("LOCAL_POSITION_NED")
+        return self.frame.state(att, pos)
+
+    # -- readings -----------------------------------------------------------------------------
+    def readings(self, t: float) -> list[Reading]:
+        """The readings of the messages new since the last call, stamped ``t`` (s, mission time).
+
+        Also sets :attr:`specific_force` (3,, m/s^2; NaN without a new IMU message)."""
+        new, self._new = self._new, {}
+        out: list[Reading] = []
+        frame = self.frame
+        std = self._std
+        att = new.get("ATTITUDE")
+        if att is not None:
+            value = np.array([att.roll, att.pitch, wrap_angle(att.yaw + frame.dpsi)], dtype=float)
+            out.append(Reading("attitude", t, value, std["attitude"].copy()))
+        imu = new.get("SCALED_IMU2") or new.get("RAW_IMU")
+        self.specific_force = np.full(3, np.nan)
+        if imu is not None:
+            gyro = np.array([imu.xgyro, imu.ygyro, imu.zgyro], dtype=float) * MRAD_S
+            f_b = np.array([imu.xacc, imu.yacc, imu.zacc], dtype=float) * MG_M_S2
+            self.specific_force = f_b
+            out.append(Reading("gyro", t, gyro, std["gyro"].copy()))
+            out.append(Reading("accel", t, f_b.copy(), std["accel"].copy()))
+        depth_msg = new.get(self._depth_type) if self._depth_type is not None else None
+        if depth_msg is not None:
+            d = frame.p_mission0[2] + (_depth_of(depth_msg) - self._depth0)
+            out.append(Reading("depth", t, np.array([d]), std["depth"].copy()))
+        pos = new.get("LOCAL_POSITION_NED")
+        if pos is not None and self.sensors.position.source != "none":
+            p = frame.position(np.array([pos.x, pos.y, pos.z]))
+            out.append(Reading("position", t, p, std["position"].copy()))
+        if pos is not None and self.sensors.dvl.enabled:
+            a, _ = self.latest("ATTITUDE")
+            theta = np.array([a.roll, a.pitch, wrap_angle(a.yaw + frame.dpsi)])
+            v_b = _rotation(theta).T @ (frame.R @ np.array([pos.vx, pos.vy, pos.vz]))
+            out.append(Reading("dvl", t, v_b, std["dvl"].copy()))
+        return out

@@ -170,7 +170,9 @@ def channels_for_wrench(
             c_new = np.clip(c + step, -1.0, 1.0)
             u_new, pwm_new = thrusts(c_new)
             r_new = B @ u_new - w
-            if np.linalg.norm(r_new) < np.linalg.norm(r):
+            # not worse: inside a dead band the thrust (so the residual) stays put while the
+            # inputs walk towards the band's edge, so equal is progress too
+            if np.linalg.norm(r_new) <= np.linalg.norm(r) and np.any(c_new != c):
                 break
             step = step / 2
         else:

@@ -46,6 +46,8 @@ __all__ = ["LinkError", "MavlinkLink", "connection_string"]
 mavlink = mavutil.mavlink
 UINT16_MAX = 65535
 GCS_COMPONENT = mavlink.MAV_COMP_ID_MISSIONPLANNER  # 190
+#: Most received messages kept for :meth:`MavlinkLink.drain` (a session drains every step).
+INBOX_MAX = 100_000
 
 
 class LinkError(RuntimeError):
@@ -114,6 +116,7 @@ class MavlinkLink:
         self._lock = threading.Lock()
         self._tlog_lock = threading.Lock()
         self._latest: dict[str, tuple[Any, float]] = {}
+        self._inbox: list[tuple[int, Any]] = []  # (tlog stamp us, message) not yet drained
         self._acks: list[tuple[int, int, float]] = []
         self._stop = self.clock.event()
         self._threads: list[threading.Thread] = []
@@ -135,12 +138,42 @@ class MavlinkLink:
         self.clock.attach(self.conn)
 
     # -- recording ------------------------------------------------------------------------
-    def _record(self, buf: bytes) -> None:
-        if self._tlog is None:
-            return
+    def _record(self, buf: bytes, inbox: Any = None) -> None:
+        """Write ``buf`` to the tlog; ``inbox``: also queue this received message for
+        :meth:`drain`, with the same stamp, under the same lock (so that a drain's marker
+        in the tlog separates exactly the messages it took from the later ones)."""
         with self._tlog_lock:
-            if not self._tlog.closed:
-                self._tlog.write(struct.pack(">Q", int(self.clock.time() * 1e6)) + bytes(buf))
+            stamp = int(self.clock.time() * 1e6)
+            if inbox is not None:
+                self._inbox.append((stamp, inbox))
+                if len(self._inbox) > INBOX_MAX:  # nobody drains (a link used without a session)
+                    del self._inbox[: INBOX_MAX // 2]
+            if self._tlog is not None and not self._tlog.closed:
+                self._tlog.write(struct.pack(">Q", stamp) + bytes(buf))
+
+    def drain(self, marker: str, value: int = 0) -> tuple[int, list[tuple[int, Any]]]:
+        """The vehicle's messages received since the last drain: ``(now, [(stamp, message)])``,
+        stamps in us on the tlog's clock (``now``: the drain's).
+
+        A NAMED_VALUE_INT ``marker`` = ``value`` from our system id is written to the tlog
+        (not sent) at the drain, with the same stamp, so that a replay of the tlog
+        (:class:`auvdock.fly.replay.ReplayLink`) hands its session exactly the messages and
+        the time this call returned.  ``marker`` is at most 10 characters (MAVLink's name field).
+        """
+        with self._tlog_lock:
+            now = int(self.clock.time() * 1e6)
+            taken, self._inbox = self._inbox, []
+            if self._tlog is not None and not self._tlog.closed:
+                msg = self.conn.mav.named_value_int_encode(
+                    (now // 1000) % (1 << 32), marker.encode(), int(value)
+                )
+                self._tlog.write(struct.pack(">Q", now) + bytes(msg.pack(self.conn.mav)))
+        return now, taken
+
+    def note(self, text: str) -> None:
+        """Write a STATUSTEXT (INFO, at most 50 characters) from our system id to the tlog only."""
+        msg = self.conn.mav.statustext_encode(mavlink.MAV_SEVERITY_INFO, text.encode()[:50])
+        self._record(msg.pack(self.conn.mav))
 
     def _on_send(self, msg: Any) -> None:
         try:
@@ -235,9 +268,10 @@ class MavlinkLink:
             mtype = msg.get_type()
             if mtype == "BAD_DATA":
                 continue
-            self._record(msg.get_msgbuf())
             # the vehicle's messages; LANDING_TARGET may come from any external system
-            if msg.get_srcSystem() != self.target_system and mtype != "LANDING_TARGET":
+            ours = msg.get_srcSystem() == self.target_system or mtype == "LANDING_TARGET"
+            self._record(msg.get_msgbuf(), inbox=msg if ours else None)
+            if not ours:
                 continue
             now = self.clock.now()
             with self._lock:

@@ -66,11 +66,17 @@ Messages sent
     Gyro = p, q, r in mrad/s; magnetometer 0.
   - ``SERVO_OUTPUT_RAW``: servo1_raw..servo8_raw = motor PWM (us) =
     ``motor_pwm(mix((channels - 1500) / 400))`` when armed, 1500 when disarmed.
+  - ``VFR_HUD``: heading (deg, 0..359), alt = minus the depth (m), climb = the upward
+    velocity (m/s); airspeed and groundspeed the horizontal speed over ground, throttle 0.
 
-  Optional Gaussian noise (``noise=True``, seeded by ``seed``, default the mission's seed)
-  with the standard deviations of ``mission.sensors``: attitude ``attitude_std_rad``, body
-  rates ``gyro_std_rad_s``, position and depth ``position_std_m``, NED velocity
-  ``relative_velocity_std_m_s``, specific force ``accel_std_m_s2``.  Default off.
+  Sensor errors (``noise=True``, seeded by ``seed``, default the mission's seed) are those of
+  the mission's sensor suite (``mission.sensors``, the same figures ``sim`` simulates with
+  ``estimation: filter``): attitude ``ahrs.roll_pitch_std_rad`` / ``ahrs.yaw_std_rad``; the
+  IMU's white noise ``imu.accel_noise_m_s2`` / ``imu.gyro_noise_rad_s`` plus a constant bias
+  per run drawn with ``imu.accel_bias_m_s2`` / ``imu.gyro_bias_rad_s``; depth
+  ``depth.std_m``; LOCAL_POSITION_NED's position the position source's noise
+  (``position.figures()``) and its velocity ``dvl.std_m_s``.  ATTITUDE's body rates are the
+  autopilot's bias-corrected rates (gyro white noise only).  Default off.
 * ``COMMAND_ACK`` for every command (below), ``STATUSTEXT`` "Arming motors",
   "Disarming motors" and "Lost manual control" (severity CRITICAL, on the failsafe).
 
@@ -169,6 +175,7 @@ from ..mission import Mission, load_mission
 from ..vehicle.state import ANG, ATT, LIN, POS
 from ..vehicle.thrusters import PWM_MAX_US, PWM_MIN_US, PWM_NEUTRAL_US
 from .ardusub import MODES, NEUTRAL_CHANNELS, PWM_PER_UNIT, mix, motor_pwm, thrust_from_channels
+from .units import GRAVITY, MG_M_S2, MRAD_S, pressure_hpa
 
 __all__ = [
     "VehicleSim",
@@ -186,9 +193,6 @@ M = mavlink2
 
 SYSTEM_ID = 1
 COMPONENT_ID = 1
-GRAVITY = 9.80665  # m/s^2, also 1000 mG
-WATER_DENSITY = 1025.0  # kg/m^3
-ATMOSPHERE_HPA = 1013.25
 WATER_TEMPERATURE_CDEG = 1500  # 15 C, in cdegC
 HEARTBEAT_PERIOD_S = 1.0
 OVERRIDE_TIMEOUT_S = 3.0  # ArduPilot RC_OVERRIDE_TIME
@@ -204,6 +208,7 @@ STREAMS: dict[str, int] = {
     "SCALED_IMU2": M.MAVLINK_MSG_ID_SCALED_IMU2,
     "RAW_IMU": M.MAVLINK_MSG_ID_RAW_IMU,
     "SERVO_OUTPUT_RAW": M.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW,
+    "VFR_HUD": M.MAVLINK_MSG_ID_VFR_HUD,
 }
 _STREAM_NAMES = {v: k for k, v in STREAMS.items()}
 _MODE_NAMES = {v: k for k, v in MODES.items()}
@@ -223,11 +228,6 @@ class SimEvent:
     t: float
     kind: str
     detail: str
-
-
-def pressure_hpa(depth_m: float) -> float:
-    """Absolute pressure (hPa) at ``depth_m`` (m, positive down) in sea water of 1025 kg/m^3."""
-    return ATMOSPHERE_HPA + WATER_DENSITY * GRAVITY * depth_m / 100.0
 
 
 def channels_from_override(values: list[int] | np.ndarray) -> np.ndarray:
@@ -347,6 +347,10 @@ class VehicleSim:
             self._step_fn = self.vehicle.stepper(self.dt, n_sub, self.flow)
         self._rng = np.random.default_rng(mission.seed if seed is None else seed)
         self._sensors = mission.sensors
+        imu = mission.sensors.imu
+        # constant IMU biases of this run (drawn whether or not noise is on: same seed, same stream)
+        self._bias_a = self._rng.normal(0.0, imu.accel_bias_m_s2, 3)
+        self._bias_g = self._rng.normal(0.0, imu.gyro_bias_rad_s, 3)
 
         self._lock = threading.RLock()
         self._stop_event = self.clock.event()
@@ -904,8 +908,11 @@ class VehicleSim:
 
     def _send_attitude(self) -> None:
         x = self._x
-        att = x[ATT] + self._n(self._sensors.attitude_std_rad, 3)
-        w = x[ANG] + self._n(self._sensors.gyro_std_rad_s, 3)
+        ahrs = self._sensors.ahrs
+        att = x[ATT] + np.array(
+            [self._n(ahrs.roll_pitch_std_rad), self._n(ahrs.roll_pitch_std_rad), self._n(ahrs.yaw_std_rad)]
+        )
+        w = x[ANG] + self._n(self._sensors.imu.gyro_noise_rad_s, 3)
         self._send(
             self._conn.mav.attitude_send,
             self._time_boot_ms(),
@@ -919,12 +926,12 @@ class VehicleSim:
 
     def _send_local_position_ned(self) -> None:
         x = self._x
-        p = x[POS] + self._n(self._sensors.position_std_m, 3)
-        v = self._rotation(x) @ x[LIN] + self._n(self._sensors.relative_velocity_std_m_s, 3)
+        p = x[POS] + self._n(self._sensors.position.figures()[2], 3)
+        v = self._rotation(x) @ x[LIN] + self._n(self._sensors.dvl.std_m_s, 3)
         self._send(self._conn.mav.local_position_ned_send, self._time_boot_ms(), *map(float, (*p, *v)))
 
     def _send_scaled_pressure2(self) -> None:
-        depth = float(self._x[2]) + float(self._n(self._sensors.position_std_m))
+        depth = float(self._x[2]) + float(self._n(self._sensors.depth.std_m))
         self._send(
             self._conn.mav.scaled_pressure2_send,
             self._time_boot_ms(),
@@ -932,6 +939,14 @@ class VehicleSim:
             0.0,
             WATER_TEMPERATURE_CDEG,
         )
+
+    def _send_vfr_hud(self) -> None:
+        x = self._x
+        v_ned = self._rotation(x) @ x[LIN]
+        depth = float(x[2]) + float(self._n(self._sensors.depth.std_m))
+        speed = float(np.hypot(v_ned[0], v_ned[1]))
+        heading = int(math.degrees(float(x[5])) % 360.0)
+        self._send(self._conn.mav.vfr_hud_send, speed, speed, heading, 0, -depth, float(-v_ned[2]))
 
     def _imu(self) -> tuple[np.ndarray, np.ndarray]:
         """(specific force in {b} m/s^2, body rates rad/s): the last physics step's mean acceleration."""
@@ -944,13 +959,16 @@ class VehicleSim:
                 a_n[2] = 0.0
                 a_b = R.T @ a_n
         f_b = a_b - R.T @ np.array([0.0, 0.0, GRAVITY])
-        f_b = f_b + self._n(self._sensors.accel_std_m_s2, 3)
-        w = x[ANG] + self._n(self._sensors.gyro_std_rad_s, 3)
+        imu = self._sensors.imu
+        w = x[ANG]
+        if self.noise:
+            f_b = f_b + self._bias_a + self._n(imu.accel_noise_m_s2, 3)
+            w = w + self._bias_g + self._n(imu.gyro_noise_rad_s, 3)
         return f_b, w
 
     def _send_imu(self, name: str, f_b: np.ndarray, w: np.ndarray) -> None:
-        acc = [_i16(1000.0 * v / GRAVITY) for v in f_b]
-        gyro = [_i16(1000.0 * v) for v in w]
+        acc = [_i16(v / MG_M_S2) for v in f_b]
+        gyro = [_i16(v / MRAD_S) for v in w]
         if name == "SCALED_IMU2":
             self._send(
                 self._conn.mav.scaled_imu2_send,

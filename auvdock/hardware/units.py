@@ -1,0 +1,60 @@
+"""Units of ArduSub's telemetry, both ways: what a MAVLink field holds and what it means.
+
+One place for the conversions the vehicle simulator encodes and ``fly`` / ``replay``
+decode, so that both read the same numbers:
+
+==================  ============================  ==========================================
+message             field                          unit (MAVLink common.xml)
+==================  ============================  ==========================================
+SCALED_IMU2         xacc, yacc, zacc (int16)       mG, 1 mG = 9.80665e-3 m/s^2
+RAW_IMU             xacc, yacc, zacc (int16)       raw; ArduPilot sends mG as SCALED_IMU
+SCALED_IMU2         xgyro, ygyro, zgyro (int16)    mrad/s
+SCALED_PRESSURE2    press_abs (float)              hPa
+VFR_HUD             alt (float)                    m, up (ArduSub: minus the depth)
+==================  ============================  ==========================================
+
+Depth from pressure: ``(p - p_surface) 100 / (rho g)`` with sea water's density; ArduSub's
+own depth uses its ``BARO_SPEC_GRAV`` (1.0 fresh, 1.024 salt water) and the pressure at its
+boot as the surface.  ``fly`` only uses depth *differences* from the session's start, so the
+surface pressure cancels.
+"""
+
+from __future__ import annotations
+
+import math
+
+from ..measurements import GRAVITY
+
+__all__ = [
+    "GRAVITY",
+    "MG_M_S2",
+    "MRAD_S",
+    "WATER_DENSITY",
+    "ATMOSPHERE_HPA",
+    "ACCEL_LSB_STD_M_S2",
+    "GYRO_LSB_STD_RAD_S",
+    "pressure_hpa",
+    "depth_from_pressure",
+]
+
+#: One mG in m/s^2 (SCALED_IMU* accelerations).
+MG_M_S2 = GRAVITY / 1000.0
+#: One mrad/s in rad/s (SCALED_IMU* rates).
+MRAD_S = 1e-3
+#: Sea water, kg/m^3.
+WATER_DENSITY = 1025.0
+#: Standard atmosphere at the surface, hPa.
+ATMOSPHERE_HPA = 1013.25
+#: The standard deviation of rounding to whole mG / mrad/s (uniform over one step: step / sqrt(12)).
+ACCEL_LSB_STD_M_S2 = MG_M_S2 / math.sqrt(12.0)
+GYRO_LSB_STD_RAD_S = MRAD_S / math.sqrt(12.0)
+
+
+def pressure_hpa(depth_m: float) -> float:
+    """Absolute pressure (hPa) at ``depth_m`` (m, down) under the standard atmosphere."""
+    return ATMOSPHERE_HPA + WATER_DENSITY * GRAVITY * depth_m / 100.0
+
+
+def depth_from_pressure(press_abs_hpa: float) -> float:
+    """Depth (m, down) of an absolute pressure (hPa) under the standard atmosphere."""
+    return (float(press_abs_hpa) - ATMOSPHERE_HPA) * 100.0 / (WATER_DENSITY * GRAVITY)
