@@ -140,3 +140,71 @@ def vehicle_sim(
     except OSError as e:
         fail_input(f"--port {port}: {e}")
     console.print(f"stopped at t = {sim.t:.1f} s; events: " + ", ".join(e.kind for e in sim.events))
+
+
+@app.command()
+def replay(
+    tlog: Path = typer.Argument(..., help="A flight's tlog, as fly writes it beside its results."),
+    mission: Path = typer.Argument(..., help="The mission it flew (or a variant to try on the same data)."),
+    controller: str | None = typer.Option(
+        None, "--controller", "-c", help="Controller (default: the flight's, from its tlog)."
+    ),
+    out: Path | None = typer.Option(
+        None, "--out", "-o", help="Results file (default: the tlog's name with _replay.h5)."
+    ),
+    force: bool = typer.Option(False, "--force", help="Overwrite an existing results file."),
+) -> None:
+    """Rerun a flight's estimator and controller offline on its tlog; results like fly's.
+
+    The same session code runs on the recorded messages, step by step (nothing is sent); with
+    the flight's mission and controller the outputs equal the flight's.  If the flight's
+    results file lies beside the tlog, the largest thrust difference is printed.
+    """
+    from ..fly.replay import ReplayError
+    from ..fly.replay import replay as run_replay
+    from ..results import read_run
+
+    if not tlog.is_file():
+        fail_input(f"{tlog}: no such file")
+    m = load_or_exit(mission)
+    if controller is not None and controller not in CONTROLLER_TYPES:
+        fail_input(f"--controller: unknown controller {controller!r} (known: {', '.join(CONTROLLER_TYPES)})")
+    h5 = out if out is not None else tlog.with_name(f"{tlog.stem}_replay.h5")
+    if h5.is_dir():
+        fail_input(f"--out {h5}: is a directory")
+    if h5.exists() and not force:
+        fail_input(f"--out {h5}: exists (--force to overwrite)")
+    if not h5.parent.is_dir():
+        fail_input(f"--out {h5}: no such directory {h5.parent}")
+    if h5.exists():
+        h5.unlink()
+    try:
+        result, tag = run_replay(tlog, m, h5, controller=controller)
+    except (ReplayError, MissionError) as e:
+        fail_input(str(e))
+        raise AssertionError("unreachable") from None
+    except KeyboardInterrupt:
+        exit_interrupted(f"interrupted (Ctrl-C); results so far in {h5}")
+    name = controller or (tag.controller if tag is not None else m.controller.type)
+    console.print(
+        f"[bold]replay[/bold] {tlog.name} with {m.name} / {name}: {result.reason}: {result.message}",
+        highlight=False,
+        soft_wrap=True,
+    )
+    if result.results_path is None:
+        err_console.print(
+            f"replay: no control step reached ({result.message})", markup=False, highlight=False
+        )
+        raise typer.Exit(code=1)
+    r = read_run(h5)
+    console.print(f"results: {h5} ({int(r.control_rows().sum())} control steps)")
+    flight = tlog.with_suffix(".h5")
+    if flight.is_file():
+        f = read_run(flight)
+        n = min(len(f.thrust_N), len(r.thrust_N))
+        diff = float(abs(f.thrust_N[:n] - r.thrust_N[:n]).max()) if n else float("nan")
+        console.print(
+            f"the flight's results {flight.name}: {n} rows compared, largest thrust difference {diff:.3g} N"
+        )
+    if result.message.startswith("replay diverged"):
+        raise typer.Exit(code=1)
