@@ -198,8 +198,8 @@ def test_flow_estimating_controller_on_truth_is_refused_before_connecting(loop, 
     assert res.exit_code == 2
     assert res.stderr.strip() == (
         f"error: {TANK}: estimation: sequential learns the current from the vehicle's sensors; on a "
-        "vehicle that needs estimation: filter (truth is the paper's simulated water-relative "
-        "velocity sensor)"
+        "vehicle that needs estimation: filter (fly --estimation filter; truth is the paper's "
+        "simulated water-relative velocity sensor)"
     )
 
 

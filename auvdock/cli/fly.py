@@ -45,12 +45,22 @@ def fly(
     connect_timeout: float = typer.Option(
         10.0, "--connect-timeout", min=0.1, help="Wait for the vehicle, s."
     ),
+    estimation: str | None = typer.Option(
+        None,
+        "--estimation",
+        help="Override the mission's estimation: filter (the navigation filter on the vehicle's "
+        "sensors; needed by the FSE controllers) or truth (the autopilot's estimate as the state).",
+    ),
 ) -> None:
     """Dock a real BlueROV2 (ArduSub) over MAVLink with the mission's controller."""
     from ..fly import FlySession
     from ..hardware.link import MavlinkLink, connection_string
 
     m = load_or_exit(mission)
+    if estimation is not None:
+        if estimation not in ("truth", "filter"):
+            fail_input(f"--estimation: must be truth or filter (got {estimation!r})")
+        m = m.with_updates(estimation=estimation)
     if controller is not None and controller not in CONTROLLER_TYPES:
         fail_input(f"--controller: unknown controller {controller!r} (known: {', '.join(CONTROLLER_TYPES)})")
     try:

@@ -211,7 +211,8 @@ class FlySession:
                 mission.source or mission.name,
                 "estimation",
                 f"{name} learns the current from the vehicle's sensors; on a vehicle that needs "
-                "estimation: filter (truth is the paper's simulated water-relative velocity sensor)",
+                "estimation: filter (fly --estimation filter; truth is the paper's simulated "
+                "water-relative velocity sensor)",
             )
         self.telemetry = TelemetrySensors(mission.sensors, mission.estimation)
         self._model_dock: HeaveDock = mission.build_dock()
