@@ -277,6 +277,11 @@ class FlySpec(Strict):
     stale_abort_s: PosFloat = Field(
         default=2.0, description="no ATTITUDE or position for this long: abort, s"
     )
+    max_failed_solves: Annotated[int, Field(ge=1, le=10_000)] = Field(
+        default=20,
+        description="abort after this many controller steps in a row without a converged solve "
+        "(each one flown with the bounded fallback: the last plan briefly, then neutral)",
+    )
     geofence: GeofenceSpec = Field(default_factory=GeofenceSpec)
 
 

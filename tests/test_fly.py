@@ -257,3 +257,23 @@ def test_a_session_in_simulated_time_is_deterministic(tmp_path, monkeypatch) -> 
     np.testing.assert_array_equal(a.extras["telemetry_age_s"], b.extras["telemetry_age_s"])
     np.testing.assert_array_equal(xa, xb)
     assert ta == tb
+
+
+def test_failing_solves_fly_neutral_then_abort(loop, tmp_path) -> None:
+    """Every solve stopping early (one SQP iteration): the bounded fallback (the last plan for at
+    most two steps, then neutral thrust), then the abort after fly.max_failed_solves."""
+    mission = write_mission(
+        tmp_path / "failing.yaml", controller={"type": "oracle", "solver": {"name": "sqp", "max_iter": 1}}
+    )
+    sim, port = loop.vehicle(mission)
+    res = loop.fly(port, tmp_path, "--arm", "--timeout", "30", mission=mission)
+    assert res.exit_code == 3, res.output + res.stderr
+    assert res.stderr.strip() == (
+        "aborted: controller: 20 steps in a row without a converged solve (last status fallback_zero)"
+    )
+    r = read_run(next(tmp_path.glob("tank_0p6hz_oracle_fly_*.h5")))
+    names = [r.status_names[int(s)] for s in r.solver_status]
+    assert names.count("ok") == 0 and len(names) == 20
+    assert names[:3] == ["fallback_zero"] * 3  # no good plan yet: neutral from the first step
+    assert np.all(r.thrust_N == 0.0) and np.all(r.extras["channels_us"] == 1500)
+    assert not sim.armed

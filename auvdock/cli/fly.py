@@ -12,6 +12,7 @@ import time
 from pathlib import Path
 
 import typer
+from rich.markup import escape
 
 from ..clock import Clock, wall_clock
 from ..mission import CONTROLLER_TYPES, MissionError
@@ -100,19 +101,19 @@ def fly(
 
     result = session.run(progress=on_step)
     for t_ev, text in result.events:
-        console.print(f"  [dim]{t_ev:7.2f} s[/dim] {text}", markup=True, highlight=False)
+        console.print(f"  [dim]{t_ev:7.2f} s[/dim] {escape(text)}", highlight=False, soft_wrap=True)
     if result.results_path is not None:
-        console.print(f"results: {result.results_path}")
-    console.print(f"tlog: {tlog}")
+        console.print(f"results: {result.results_path}", highlight=False, soft_wrap=True)
+    console.print(f"tlog: {tlog}", highlight=False, soft_wrap=True)
     if result.reason == "docked":
-        console.print(f"[green]{result.message}[/green]")
+        console.print(f"[green]{escape(result.message)}[/green]", soft_wrap=True)
     elif result.reason == "timeout":
-        err_console.print(f"not docked: {result.message}", markup=False, highlight=False)
+        err_console.print(f"not docked: {result.message}", markup=False, highlight=False, soft_wrap=True)
     elif result.reason == "interrupted":
         where = f"; results in {result.results_path}" if result.results_path is not None else ""
         exit_interrupted(f"{result.message}{where}")  # "interrupted (Ctrl-C)...; results in ..."
     else:
-        err_console.print(f"{result.reason}: {result.message}", markup=False, highlight=False)
+        err_console.print(f"{result.reason}: {result.message}", markup=False, highlight=False, soft_wrap=True)
     raise typer.Exit(code=result.exit_code)
 
 

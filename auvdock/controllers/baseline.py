@@ -72,6 +72,7 @@ def build_mpc(
         solver=solver,
         max_iter=settings.solver.max_iter,
         tol=settings.solver.tol,
+        fallback_steps=settings.solver.fallback_steps,
         **kw,
     )
 

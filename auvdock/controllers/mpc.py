@@ -24,8 +24,10 @@ Prediction models (``prediction``), all from :class:`auvdock.vehicle.model.Vehic
 The problem is built ONCE; everything that changes between solves (state, last input,
 dock trajectory, heading reference, flow, input offset) is a parameter packed in one
 vector.  Each solve is warm-started from the previous solution shifted by one step.  A
-solve that fails or does not converge never raises: the caller gets the next input of the
-last good plan (or zero thrust if there is none) with a status code saying so.
+solve that fails or does not converge never raises; the fallback is bounded
+(:data:`FALLBACK_RULE`): for at most ``fallback_steps`` steps in a row the input the last good
+plan scheduled for that instant, then zero thrust (neutral) until a solve succeeds, with a
+status code saying which.  An old input is never repeated.
 """
 
 from __future__ import annotations
@@ -52,6 +54,12 @@ Prediction = Literal["naive", "kinematic", "full"]
 
 #: ``return_status`` of a solve skipped because its parameters were not finite.
 NON_FINITE_INPUT = "non-finite input (state, flow estimate or dock)"
+
+#: The fallback after failed solves, in words (results files and the README quote it).
+FALLBACK_RULE = (
+    "after a failed or unconverged solve, the last good plan's input for that instant, for at most "
+    "fallback_steps steps in a row; then zero thrust (neutral) until a solve succeeds"
+)
 
 
 @dataclass
@@ -126,6 +134,9 @@ class DockingMPC:
     extra_hessian : bool
         Add the exact Hessian of ``objective_extra`` to the Gauss-Newton matrix.  False
         gives it zero curvature (the QP stays convex; the term acts through its gradient).
+    fallback_steps : int
+        Most consecutive failed solves bridged with the last good plan (:data:`FALLBACK_RULE`);
+        0: zero thrust at the first failure.
     """
 
     def __init__(
@@ -148,6 +159,7 @@ class DockingMPC:
         objective_extra=None,
         extra_params: int = 0,
         extra_hessian: bool = True,
+        fallback_steps: int = 2,
     ) -> None:
         if prediction not in ("naive", "kinematic", "full"):
             raise ValueError(f"unknown prediction model {prediction!r}")
@@ -172,6 +184,9 @@ class DockingMPC:
         self._R = lambda angles: np.asarray(rot(angles))  # R(Theta), {b} -> {n}
         self._rot_map = rot.map(self.N + 1)
         self._extra_hessian = bool(extra_hessian)
+        if fallback_steps < 0:
+            raise ValueError("fallback_steps must be >= 0")
+        self.fallback_steps = int(fallback_steps)
         self._build(objective_extra, solver, max_iter, tol, hessian)
         self.reset()
 
@@ -373,11 +388,13 @@ class DockingMPC:
             thrust = np.clip(self._plan_u[0], self.u_min, self.u_max)
             return MPCResult(thrust, STATUS_OK, solve_time, iters, self._plan_x, self._plan_u, fval, ret)
 
-        # fallback: next input of the last good plan, else zero thrust
+        # bounded fallback (FALLBACK_RULE): the last good plan's input for this instant for at
+        # most fallback_steps steps, then neutral; never an old input repeated
         status = STATUS_NOT_CONVERGED if finite else STATUS_FAILED
         if self._plan_u is not None:
             self._plan_age += 1
-            k = min(self._plan_age, self.N - 1)
+        k = self._plan_age
+        if self._plan_u is not None and k <= min(self.fallback_steps, self.N - 1):
             thrust = np.clip(self._plan_u[k], self.u_min, self.u_max)
             plan_x, plan_u = self._plan_x, self._plan_u
         else:

@@ -75,6 +75,11 @@ class SolverSpec(Strict):
         default=100, description="iteration limit per solve"
     )
     tol: PosFloat = Field(default=1e-6, description="convergence tolerance")
+    fallback_steps: Annotated[int, Field(ge=0, le=20)] = Field(
+        default=2,
+        description="after failed solves: the last good plan's input for that instant for at most this "
+        "many steps in a row, then zero thrust (neutral) until a solve succeeds",
+    )
 
     @field_validator("name")
     @classmethod

@@ -6,7 +6,8 @@ code   name                meaning
 0      ``ok``              the step's optimisation converged; its first input is applied
 1      ``not_converged``   it stopped early (iteration limit); a fallback input is applied
 2      ``failed``          it failed (or was not attempted: non-finite input); fallback
-3      ``fallback_zero``   it failed and there was no plan to fall back on: zero thrust
+3      ``fallback_zero``   it failed, with no plan to fall back on or after ``fallback_steps``
+                           failures in a row (mpc.FALLBACK_RULE): zero thrust (neutral)
 4      ``no_step``         no controller step: the row records the run's final state
 5      ``settling``        no controller step: the navigation filter is settling, thrust zero
 =====  ==================  ===============================================================

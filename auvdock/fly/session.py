@@ -51,7 +51,7 @@ from ..autopilot import build_autopilot
 from ..clock import Clock
 from ..controllers import Measurement
 from ..controllers.registry import CONTROLLERS
-from ..controllers.status import STATUS_NAMES, STATUS_NO_STEP
+from ..controllers.status import FAILURE_CODES, STATUS_NAMES, STATUS_NO_STEP
 from ..dock import HeaveDock, TrackedDock
 from ..geometry import rotation_zyx
 from ..hardware.ardusub import NEUTRAL_CHANNELS, channels_for_thrust, thrust_from_channels
@@ -187,6 +187,7 @@ class FlySession:
         self._t0 = self.clock.now()
         self._frame: Any = None
         self._now_us = 0
+        self._failed_solves = 0
         self._rec: FlyRecorder | None = None
         self._we_armed = False
         self._last_target: int | None = None
@@ -470,6 +471,7 @@ class FlySession:
             series={**series, **camera_series},
         )
         self._t_end = t
+        self._check_solves(out.status)
         if self._progress is not None:
             self._progress(t, dist, STATUS_NAMES.get(out.status, str(out.status)))
 
@@ -487,6 +489,16 @@ class FlySession:
                 self._event(f"telemetry stale ({stale:.2f} s): neutral")
             return True
         return False
+
+    def _check_solves(self, status: int) -> None:
+        """Abort after ``fly.max_failed_solves`` steps in a row without a converged solve."""
+        self._failed_solves = self._failed_solves + 1 if status in FAILURE_CODES else 0
+        limit = self.mission.fly.max_failed_solves
+        if self._failed_solves >= limit:
+            raise FlyAbortError(
+                f"controller: {limit} steps in a row without a converged solve "
+                f"(last status {STATUS_NAMES.get(status, status)})"
+            )
 
     def _check_geofence(self, x: np.ndarray) -> None:
         fence = geofence_violation(self.mission.fly.geofence, x, self._frame.p_mission0)
