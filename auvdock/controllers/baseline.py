@@ -73,6 +73,8 @@ def build_mpc(
         max_iter=settings.solver.max_iter,
         tol=settings.solver.tol,
         fallback_steps=settings.solver.fallback_steps,
+        offset_free=settings.variant == "robust",
+        disturbance_time_constant_s=settings.disturbance_time_constant_s,
         **kw,
     )
 

@@ -13,6 +13,21 @@ velocity reference is the dock's velocity over ground expressed in {b}, equivale
 dock's velocity minus the flow for the relative velocity) and ``u_off`` is an optional
 fixed input offset (the active-perception input of Sequential FSE-MPC).
 
+Offset-free tracking (``offset_free=True``; the paper's formulation has none): a lumped
+disturbance ``d = [f_n (3, N, in {n}); m_b (3, N m, in {b})]`` enters every prediction as the
+extra wrench ``[R^T f_n; m_b]``, held over the horizon.  Before each solve it is updated from
+the last step's prediction error of the MPC's own one-step model (same discretisation, so
+that with the updated ``d`` its prediction of the measured velocity is right)::
+
+    e = nu_k - nu_hat_k(x_(k-1), u_(k-1), flow_(k-1), d),   delta = M e / dt   ({b})
+    d <- clip(d + (dt / T_d) [R delta_(1:3); delta_(4:6)], -d_max, d_max)
+
+(a first-order filter of time constant ``T_d`` on the wrench that explains the error;
+``d_max`` the vehicle's largest wrench per axis, ``|B| u_max``).  A steady model error, a
+steady current-estimate error or an unmodelled buoyancy then leaves no steady position
+error: at a steady state the prediction is exact and the cost's minimum is on the reference
+(Pannocchia and Rawlings, AIChE J. 49(2), 2003; Maeder, Borrelli and Morari, Automatica 45(6), 2009).
+
 Prediction models (``prediction``), all from :class:`auvdock.vehicle.model.VehicleModel`:
 
 * ``"naive"`` -- eqs. (1)-(2) with no current (nu_c = 0);
@@ -137,6 +152,10 @@ class DockingMPC:
     fallback_steps : int
         Most consecutive failed solves bridged with the last good plan (:data:`FALLBACK_RULE`);
         0: zero thrust at the first failure.
+    offset_free : bool
+        Estimate and predict with the lumped disturbance (module docstring).
+    disturbance_time_constant_s : float
+        ``T_d``, s.
     """
 
     def __init__(
@@ -160,6 +179,8 @@ class DockingMPC:
         extra_params: int = 0,
         extra_hessian: bool = True,
         fallback_steps: int = 2,
+        offset_free: bool = False,
+        disturbance_time_constant_s: float = 1.0,
     ) -> None:
         if prediction not in ("naive", "kinematic", "full"):
             raise ValueError(f"unknown prediction model {prediction!r}")
@@ -187,6 +208,12 @@ class DockingMPC:
         if fallback_steps < 0:
             raise ValueError("fallback_steps must be >= 0")
         self.fallback_steps = int(fallback_steps)
+        self.offset_free = bool(offset_free)
+        if not disturbance_time_constant_s > 0:
+            raise ValueError("disturbance_time_constant_s must be positive")
+        self.dist_gain = min(1.0, self.dt / float(disturbance_time_constant_s))
+        B = np.asarray(vehicle.allocation, dtype=float)
+        self.dist_max = np.abs(B) @ np.maximum(np.abs(vehicle.thrust_min), np.abs(vehicle.thrust_max))
         self._build(objective_extra, solver, max_iter, tol, hessian)
         self.reset()
 
@@ -205,21 +232,26 @@ class DockingMPC:
         flow = ca.SX.sym("flow_ned", 3)
         u_off = ca.SX.sym("u_off", nu)
         extra = ca.SX.sym("extra", self.n_extra)
-        params = ca.vertcat(x0, u_prev, ca.vec(dock_p), ca.vec(dock_v), psi_ref, flow, u_off, extra)
+        dist = ca.SX.sym("disturbance", 6)
+        params = ca.vertcat(x0, u_prev, ca.vec(dock_p), ca.vec(dock_v), psi_ref, flow, u_off, extra, dist)
         self._n_params = params.shape[0]
 
-        # one-step prediction
+        # one-step prediction, with the lumped disturbance [R^T f_n; m_b] (zero: the paper's model)
         xs = ca.SX.sym("xs", nx)
         us = ca.SX.sym("us", nu)
+        zero = ca.DM.zeros(3)
+
+        def tau_d(x: ca.SX) -> ca.SX:
+            return ca.vertcat(ca.mtimes(model.rotation(x[ETA]).T, dist[0:3]), dist[3:6])
+
         if self.prediction == "naive":
-            zero = ca.DM.zeros(3)
-            f_pred = lambda x, u: model.dynamics(x, u, zero, zero)  # noqa: E731
+            f_pred = lambda x, u: model.dynamics(x, u, zero, zero, tau_d(x))  # noqa: E731
         elif self.prediction == "kinematic":
-            f_pred = lambda x, u: model.relative_dynamics(x, u, flow)  # noqa: E731
+            f_pred = lambda x, u: model.relative_dynamics(x, u, flow, tau_d(x))  # noqa: E731
         else:
-            zero = ca.DM.zeros(3)
-            f_pred = lambda x, u: model.dynamics(x, u, flow, zero)  # noqa: E731
-        step = ca.Function("step", [xs, us, flow], [rk4(f_pred, xs, dt, 1, us)])
+            f_pred = lambda x, u: model.dynamics(x, u, flow, zero, tau_d(x))  # noqa: E731
+        step = ca.Function("step", [xs, us, flow, dist], [rk4(f_pred, xs, dt, 1, us)])
+        self._step_fn = step
 
         X = ca.SX.sym("X", nx, N + 1)
         U = ca.SX.sym("U", nu, N)
@@ -251,7 +283,7 @@ class DockingMPC:
             du = U[:, k] - (u_prev if k == 0 else U[:, k - 1])
             res.append(du)
             wts.append(self.R)
-            g.append(X[:, k + 1] - step(X[:, k], U[:, k] + u_off, flow))
+            g.append(X[:, k + 1] - step(X[:, k], U[:, k] + u_off, flow, dist))
         res.append(error(N))
         wts.append(self.P)
         r = ca.vertcat(*res)
@@ -292,6 +324,21 @@ class DockingMPC:
         self._plan_u: np.ndarray | None = None
         self._plan_x: np.ndarray | None = None
         self._plan_age = 0
+        self.disturbance = np.zeros(6)
+        self._obs_prev: tuple[np.ndarray, np.ndarray] | None = None
+
+    def _observe(self, xm: np.ndarray, u_applied: np.ndarray, flow: np.ndarray) -> None:
+        """Update the lumped disturbance from the last step's prediction error (module docstring)."""
+        prev, self._obs_prev = self._obs_prev, (xm.copy(), flow.copy())
+        if prev is None or not np.all(np.isfinite(xm)):
+            return
+        xm_prev, flow_prev = prev
+        pred = np.asarray(self._step_fn(xm_prev, u_applied, flow_prev, self.disturbance)).ravel()
+        delta = self.vehicle.model.M @ (xm[NU] - pred[NU]) / self.dt
+        delta_n = np.concatenate([self._R(xm[ATT]) @ delta[0:3], delta[3:6]])
+        if np.all(np.isfinite(delta_n)):
+            d = self.disturbance + self.dist_gain * delta_n
+            self.disturbance = np.clip(d, -self.dist_max, self.dist_max)
 
     def _to_model_state(self, x: np.ndarray, flow_ned: np.ndarray) -> np.ndarray:
         """The measured state in the prediction model's coordinates."""
@@ -349,10 +396,14 @@ class DockingMPC:
         u_off = np.zeros(self.nu) if u_offset is None else np.asarray(u_offset, dtype=float)
         ex = np.zeros(self.n_extra) if extra is None else np.asarray(extra, dtype=float)
         xm = self._to_model_state(x, flow)
+        if self.offset_free:
+            self._observe(xm, np.asarray(u_prev, dtype=float), flow)
         _, dp, dv = self.dock.trajectory(t, self.dt, self.N)
         psi_d = self.dock.heading_rad
         psi_ref = psi_d + 2 * math.pi * round((x[YAW] - psi_d) / (2 * math.pi))
-        p = np.concatenate([xm, u_prev - u_off, dp.ravel(), dv.ravel(), [psi_ref], flow, u_off, ex])
+        p = np.concatenate(
+            [xm, u_prev - u_off, dp.ravel(), dv.ravel(), [psi_ref], flow, u_off, ex, self.disturbance]
+        )
         lbx, ubx = self._bounds(xm, flow, u_off)
 
         if self._w_prev is None:

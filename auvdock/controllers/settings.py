@@ -8,7 +8,7 @@ so a field of one controller type given to another (``alpha`` to ``oracle``) is 
 
 from __future__ import annotations
 
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 from pydantic import Field, field_validator
 
@@ -95,6 +95,14 @@ class MPCSettings(Strict):
     """What every docking MPC has: horizon, period, weights, bounds and solver."""
 
     type: str = Field(description="controller type (auvdock.controllers.registry)")
+    variant: Literal["paper", "robust"] = Field(
+        default="paper",
+        description="paper: the paper's formulation exactly; robust: offset-free tracking (a lumped "
+        "disturbance estimated from the prediction error and predicted over the horizon)",
+    )
+    disturbance_time_constant_s: PosFloat = Field(
+        default=1.0, description="robust: time constant of the lumped-disturbance estimate, s"
+    )
     horizon_steps: Annotated[int, Field(ge=1, le=200)] = Field(default=10, description="N, steps")
     dt_s: PosFloat = Field(default=0.05, description="control period and MPC step, s")
     weights: WeightsSpec = Field(default_factory=WeightsSpec)

@@ -227,30 +227,37 @@ class VehicleModel:
         nu_dot = ca.mtimes(self.M_inv, rhs)
         return nu_dot, nu_dot - nu_c_dot
 
-    def dynamics(self, x: Sym, u: Sym, flow_ned: Sym, flow_ned_dot: Sym | None = None) -> Sym:
+    def dynamics(
+        self, x: Sym, u: Sym, flow_ned: Sym, flow_ned_dot: Sym | None = None, tau_extra: Sym | None = None
+    ) -> Sym:
         """State derivative x_dot (12,) of eqs. (1)-(2): truth, Oracle and Naive (flow = 0) models.
 
         ``u``: thrusts (n,) in N; ``flow_ned``: water velocity in {n} (3,) m/s;
-        ``flow_ned_dot``: its rate of change along the path (3,) m/s^2, zero if omitted.
+        ``flow_ned_dot``: its rate of change along the path (3,) m/s^2, zero if omitted;
+        ``tau_extra``: an extra body wrench (6,) [N, N m] (an offset-free MPC's disturbance
+        estimate), zero if omitted.
         """
         if flow_ned_dot is None:
             flow_ned_dot = ca.DM.zeros(3)
-        nu_dot, _ = self.accelerations(x, self.wrench(u), flow_ned, flow_ned_dot)
+        tau = self.wrench(u) if tau_extra is None else self.wrench(u) + tau_extra
+        nu_dot, _ = self.accelerations(x, tau, flow_ned, flow_ned_dot)
         eta_dot = ca.mtimes(Jeta(x[ETA]), x[NU])
         return ca.vertcat(eta_dot, nu_dot)
 
-    def relative_dynamics(self, x_r: Sym, u: Sym, flow_ned: Sym) -> Sym:
+    def relative_dynamics(self, x_r: Sym, u: Sym, flow_ned: Sym, tau_extra: Sym | None = None) -> Sym:
         """Derivative of ``x_r = [eta; nu_r]`` (12,) for the Kinematic MPC's model.
 
         The current enters the kinematics only, ``eta_dot = J(Theta)(nu_r + nu_c)``, and the
         dynamics are eq. (6) with no flow terms:
-        ``M nu_r_dot + C_RB(nu_r) nu_r + C_A(nu_r) nu_r + D(nu_r) nu_r + g(eta) = tau``.
+        ``M nu_r_dot + C_RB(nu_r) nu_r + C_A(nu_r) nu_r + D(nu_r) nu_r + g(eta) = tau``
+        (``tau = B u + tau_extra``, ``tau_extra`` zero if omitted).
         """
         eta, nu_r = x_r[ETA], x_r[NU]
         nu_c = ca.vertcat(self.body_flow(eta, flow_ned), 0, 0, 0)
         eta_dot = ca.mtimes(Jeta(eta), nu_r + nu_c)
+        tau = self.wrench(u) if tau_extra is None else self.wrench(u) + tau_extra
         rhs = (
-            self.wrench(u)
+            tau
             - ca.mtimes(self.coriolis_rb(nu_r) + self.coriolis_added(nu_r) + self.damping(nu_r), nu_r)
             - self.restoring(eta)
         )
