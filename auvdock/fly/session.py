@@ -443,7 +443,7 @@ class FlySession:
         one results row.  The mission's flow model is handed on as a forecast; the Autopilot
         strips it for every controller whose definition does not read it."""
         v_c = self.flow.velocity(x[POS], t)
-        readings = self.telemetry.readings(t)
+        readings = self.telemetry.readings(t, self._now_us)
         f_b = self.telemetry.specific_force
         with SigintDeferred():  # a whole controller step (CasADi may swallow a KeyboardInterrupt)
             out = self.autopilot.step(Measurement(t=t, state=x, flow_ned=v_c, readings=readings))

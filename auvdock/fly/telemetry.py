@@ -145,7 +145,7 @@ class TelemetrySensors:
         self.sensors = sensors
         self.estimation = estimation
         self._latest: dict[str, tuple[Any, int]] = {}
-        self._new: dict[str, Any] = {}
+        self._new: dict[str, tuple[Any, int]] = {}
         self.frame: MissionFrame | None = None
         self._depth0: float | None = None
         self._depth_type: str | None = None
@@ -193,7 +193,7 @@ class TelemetrySensors:
         for stamp, msg in messages:
             mtype = msg.get_type()
             self._latest[mtype] = (msg, int(stamp))
-            self._new[mtype] = msg
+            self._new[mtype] = (msg, int(stamp))
 
     def latest(self, mtype: str) -> tuple[Any, int | None]:
         """The latest message of a type and its stamp (us), or ``(None, None)``."""
@@ -230,37 +230,49 @@ class TelemetrySensors:
         return self.frame.state(att, pos)
 
     # -- readings -----------------------------------------------------------------------------
-    def readings(self, t: float) -> list[Reading]:
-        """The readings of the messages new since the last call, stamped ``t`` (s, mission time).
+    def readings(self, t: float, now_us: int | None = None) -> list[Reading]:
+        """The readings of the messages new since the last call, at mission time ``t`` (s).
 
+        ``now_us``: the moment ``t`` on the tlog's clock (us); each reading is then stamped
+        with its arrival, ``t - (now_us - stamp) 1e-6`` (ArduSub sends a sample as it takes
+        it: on a 25 Hz stream read at 20 Hz a reading is up to 40 ms old, 12 mm of position
+        at 0.3 m/s).  None: every reading stamped ``t``.
         Also sets :attr:`specific_force` (3,, m/s^2; NaN without a new IMU message)."""
-        new, self._new = self._new, {}
+        fresh, self._new = self._new, {}
+        new = {k: m for k, (m, _) in fresh.items()}
+
+        def at(mtype: str) -> float:
+            if now_us is None:
+                return t
+            return t - max(0, now_us - fresh[mtype][1]) * 1e-6
+
         out: list[Reading] = []
         frame = self.frame
         std = self._std
         att = new.get("ATTITUDE")
         if att is not None:
             value = np.array([att.roll, att.pitch, wrap_angle(att.yaw + frame.dpsi)], dtype=float)
-            out.append(Reading("attitude", t, value, std["attitude"].copy()))
-        imu = new.get("SCALED_IMU2") or new.get("RAW_IMU")
+            out.append(Reading("attitude", at("ATTITUDE"), value, std["attitude"].copy()))
+        imu_type = "SCALED_IMU2" if "SCALED_IMU2" in new else "RAW_IMU"
+        imu = new.get(imu_type)
         self.specific_force = np.full(3, np.nan)
         if imu is not None:
             gyro = np.array([imu.xgyro, imu.ygyro, imu.zgyro], dtype=float) * MRAD_S
             f_b = np.array([imu.xacc, imu.yacc, imu.zacc], dtype=float) * MG_M_S2
             self.specific_force = f_b
-            out.append(Reading("gyro", t, gyro, std["gyro"].copy()))
-            out.append(Reading("accel", t, f_b.copy(), std["accel"].copy()))
+            out.append(Reading("gyro", at(imu_type), gyro, std["gyro"].copy()))
+            out.append(Reading("accel", at(imu_type), f_b.copy(), std["accel"].copy()))
         depth_msg = new.get(self._depth_type) if self._depth_type is not None else None
         if depth_msg is not None:
             d = frame.p_mission0[2] + (_depth_of(depth_msg) - self._depth0)
-            out.append(Reading("depth", t, np.array([d]), std["depth"].copy()))
+            out.append(Reading("depth", at(self._depth_type), np.array([d]), std["depth"].copy()))
         pos = new.get("LOCAL_POSITION_NED")
         if pos is not None and self.sensors.position.source != "none":
             p = frame.position(np.array([pos.x, pos.y, pos.z]))
-            out.append(Reading("position", t, p, std["position"].copy()))
+            out.append(Reading("position", at("LOCAL_POSITION_NED"), p, std["position"].copy()))
         if pos is not None and self.sensors.dvl.enabled:
             a, _ = self.latest("ATTITUDE")
             theta = np.array([a.roll, a.pitch, wrap_angle(a.yaw + frame.dpsi)])
             v_b = _rotation(theta).T @ (frame.R @ np.array([pos.vx, pos.vy, pos.vz]))
-            out.append(Reading("dvl", t, v_b, std["dvl"].copy()))
+            out.append(Reading("dvl", at("LOCAL_POSITION_NED"), v_b, std["dvl"].copy()))
         return out
