@@ -244,6 +244,7 @@ class FSEMPC:
         if settings.type not in ("sequential", "optimized"):
             raise ValueError(f"not an FSE-MPC controller: {settings.type!r}")
         self.name = settings.type
+        self.variant = settings.variant
         e = estimator
         dt = settings.dt_s
         self.vehicle = vehicle
@@ -274,7 +275,7 @@ class FSEMPC:
                 gamma,
                 settings.perception_solver,
             )
-            self.mpc = build_mpc(settings, vehicle, dock, "full", solver)
+            self.mpc = build_mpc(settings, vehicle, dock, "full", solver, state_from_flow=True)
         else:
             alpha = float(settings.alpha)
 
@@ -297,6 +298,7 @@ class FSEMPC:
                 objective_extra=info_term,
                 extra_params=10,
                 extra_hessian=solver == "ipopt",
+                state_from_flow=True,
             )
 
     def reset(self) -> None:
@@ -320,9 +322,12 @@ class FSEMPC:
         # the estimator's state is [eta; nu_r + f; nu_2] (ETA, LIN, ANG)
         if self.law is not None:
             tau, u_off, _ = self.law.solve(est.state, est.flow_ned, self.estimator.gramian())
-            r = self.mpc.solve(meas.t, est.state, u_prev, est.flow_ned)
-            thrust = np.clip(r.thrust + u_off, self.vehicle.thrust_min, self.vehicle.thrust_max)
-            r.thrust = thrust
+            if self.variant == "paper":  # the MPC plans without the perception input it is given
+                r = self.mpc.solve(meas.t, est.state, u_prev, est.flow_ned)
+                thrust = np.clip(r.thrust + u_off, self.vehicle.thrust_min, self.vehicle.thrust_max)
+                r.thrust = thrust
+            else:  # robust: the MPC knows the perception input over its horizon and stops undoing it
+                r = self.mpc.solve(meas.t, est.state, u_prev, est.flow_ned, u_offset=u_off)
         else:
             G = self.estimator.gramian()
             depth_row = self._rotation(est.state[ATT])[2, :]

@@ -70,6 +70,9 @@ Prediction = Literal["naive", "kinematic", "full"]
 #: ``return_status`` of a solve skipped because its parameters were not finite.
 NON_FINITE_INPUT = "non-finite input (state, flow estimate or dock)"
 
+#: Largest velocity offset of the offset-free observer, m/s per axis.
+VELOCITY_OFFSET_MAX = 0.5
+
 #: The fallback after failed solves, in words (results files and the README quote it).
 FALLBACK_RULE = (
     "after a failed or unconverged solve, the last good plan's input for that instant, for at most "
@@ -156,6 +159,10 @@ class DockingMPC:
         Estimate and predict with the lumped disturbance (module docstring).
     disturbance_time_constant_s : float
         ``T_d``, s.
+    state_from_flow : bool
+        The state's over-ground velocity is built from the flow it is given (FSE-MPC:
+        ``nu_r + R^T v_c_hat``), so a new flow estimate moves it without a force; the
+        disturbance update then predicts from the previous state re-expressed with it.
     """
 
     def __init__(
@@ -181,6 +188,7 @@ class DockingMPC:
         fallback_steps: int = 2,
         offset_free: bool = False,
         disturbance_time_constant_s: float = 1.0,
+        state_from_flow: bool = False,
     ) -> None:
         if prediction not in ("naive", "kinematic", "full"):
             raise ValueError(f"unknown prediction model {prediction!r}")
@@ -209,6 +217,7 @@ class DockingMPC:
             raise ValueError("fallback_steps must be >= 0")
         self.fallback_steps = int(fallback_steps)
         self.offset_free = bool(offset_free)
+        self.state_from_flow = bool(state_from_flow)
         if not disturbance_time_constant_s > 0:
             raise ValueError("disturbance_time_constant_s must be positive")
         self.dist_gain = min(1.0, self.dt / float(disturbance_time_constant_s))
@@ -325,20 +334,40 @@ class DockingMPC:
         self._plan_x: np.ndarray | None = None
         self._plan_age = 0
         self.disturbance = np.zeros(6)
+        self.velocity_offset = np.zeros(3)
         self._obs_prev: tuple[np.ndarray, np.ndarray] | None = None
 
-    def _observe(self, xm: np.ndarray, u_applied: np.ndarray, flow: np.ndarray) -> None:
-        """Update the lumped disturbance from the last step's prediction error (module docstring)."""
-        prev, self._obs_prev = self._obs_prev, (xm.copy(), flow.copy())
-        if prev is None or not np.all(np.isfinite(xm)):
-            return
-        xm_prev, flow_prev = prev
-        pred = np.asarray(self._step_fn(xm_prev, u_applied, flow_prev, self.disturbance)).ravel()
-        delta = self.vehicle.model.M @ (xm[NU] - pred[NU]) / self.dt
-        delta_n = np.concatenate([self._R(xm[ATT]) @ delta[0:3], delta[3:6]])
-        if np.all(np.isfinite(delta_n)):
-            d = self.disturbance + self.dist_gain * delta_n
-            self.disturbance = np.clip(d, -self.dist_max, self.dist_max)
+    def _observe(self, xm: np.ndarray, u_applied: np.ndarray, flow: np.ndarray) -> np.ndarray:
+        """Update the disturbances from the last step's prediction error (module docstring);
+        returns the state corrected by the velocity offset."""
+        if not np.all(np.isfinite(xm)):
+            self._obs_prev = None
+            return xm
+        R = self._R(xm[ATT])
+        prev = self._obs_prev
+        if prev is not None:
+            xm_prev, flow_prev = prev
+            if self.state_from_flow:
+                # a new flow estimate moves the over-ground velocity an FSE controller is given
+                # (nu_r + R^T v_c) without any force: predict from the state as it is now understood
+                xm_prev = xm_prev.copy()
+                xm_prev[LIN] += self._R(xm_prev[ATT]).T @ (flow - flow_prev)
+                flow_prev = flow
+            pred = np.asarray(self._step_fn(xm_prev, u_applied, flow_prev, self.disturbance)).ravel()
+            e_p = xm[POS] - pred[POS]  # {n}: a velocity the state does not show
+            v = self.velocity_offset + self.dist_gain * e_p / self.dt
+            if np.all(np.isfinite(v)):
+                self.velocity_offset = np.clip(v, -VELOCITY_OFFSET_MAX, VELOCITY_OFFSET_MAX)
+        xc = xm.copy()
+        xc[LIN] += R.T @ self.velocity_offset
+        if prev is not None:
+            delta = self.vehicle.model.M @ (xc[NU] - pred[NU]) / self.dt
+            delta_n = np.concatenate([R @ delta[0:3], delta[3:6]])
+            if np.all(np.isfinite(delta_n)):
+                d = self.disturbance + self.dist_gain * delta_n
+                self.disturbance = np.clip(d, -self.dist_max, self.dist_max)
+        self._obs_prev = (xc.copy(), flow.copy())
+        return xc
 
     def _to_model_state(self, x: np.ndarray, flow_ned: np.ndarray) -> np.ndarray:
         """The measured state in the prediction model's coordinates."""
@@ -397,7 +426,7 @@ class DockingMPC:
         ex = np.zeros(self.n_extra) if extra is None else np.asarray(extra, dtype=float)
         xm = self._to_model_state(x, flow)
         if self.offset_free:
-            self._observe(xm, np.asarray(u_prev, dtype=float), flow)
+            xm = self._observe(xm, np.asarray(u_prev, dtype=float), flow)
         _, dp, dv = self.dock.trajectory(t, self.dt, self.N)
         psi_d = self.dock.heading_rad
         psi_ref = psi_d + 2 * math.pi * round((x[YAW] - psi_d) / (2 * math.pi))
