@@ -82,6 +82,11 @@ def sim(
         help="truth (the paper's Assumption 1) or filter (the navigation filter on the sensor suite); "
         "default: the mission's.",
     ),
+    variant: str | None = typer.Option(
+        None,
+        "--variant",
+        help="paper (the paper's formulation) or robust (offset-free MPC); default: the mission's.",
+    ),
 ) -> None:
     """Run one closed-loop docking simulation: HDF5 results, summary table and plots."""
     from ..plots import plot_run
@@ -103,6 +108,10 @@ def sim(
         if estimation not in ("truth", "filter"):
             fail_input(f"--estimation: must be truth or filter (got {estimation!r})")
         m = m.with_updates(estimation=estimation)
+    if variant is not None:
+        if variant not in ("paper", "robust"):
+            fail_input(f"--variant: must be paper or robust (got {variant!r})")
+        m = m.with_updates(**{"controller.variant": variant})
     name = m.controller.type
     out_dir = out if out is not None else Path(m.output.dir)
     out_dir.mkdir(parents=True, exist_ok=True)
