@@ -147,6 +147,10 @@ def information_lower_bound(G):
     return det / c2
 
 
+def _finite(*arrays: np.ndarray) -> bool:
+    return all(bool(np.all(np.isfinite(a))) for a in arrays)
+
+
 class FlowKalmanFilter:
     """Linear Kalman filter on the body-frame flow with its constructability gramian.
 
@@ -184,6 +188,8 @@ class FlowKalmanFilter:
         self.P = float(prior_var) * np.eye(3)
         self.G = np.eye(3)
         self.last_innovation = np.zeros(4)
+        #: Updates skipped because they would have made the estimate non-finite.
+        self.rejected = 0
 
     @staticmethod
     def transition(nu2: np.ndarray, dt: float) -> np.ndarray:
@@ -210,11 +216,22 @@ class FlowKalmanFilter:
 
         ``extra_process_noise`` (3x3) is added to Q_f for this step (e.g. gyro noise).
         """
+        with np.errstate(all="ignore"):
+            self._predict(nu2, extra_process_noise)
+
+    def _predict(self, nu2: np.ndarray, extra_process_noise: np.ndarray | None) -> None:
         F = self.transition(nu2, self.dt)
-        self.f = F @ self.f
-        self.P = F @ self.P @ F.T + self.Qf + (0 if extra_process_noise is None else extra_process_noise)
-        Fi = np.linalg.inv(F)
-        self.G = self.gamma * Fi.T @ self.G @ Fi
+        f = F @ self.f
+        P = F @ self.P @ F.T + self.Qf + (0 if extra_process_noise is None else extra_process_noise)
+        try:
+            Fi = np.linalg.inv(F)
+            G = self.gamma * Fi.T @ self.G @ Fi
+        except np.linalg.LinAlgError:
+            G = np.full((3, 3), np.nan)
+        if not _finite(f, P, G):  # a non-finite rate: no time update (never a non-finite estimate)
+            self.rejected += 1
+            return
+        self.f, self.P, self.G = f, P, G
 
     def update(self, z: np.ndarray, H: np.ndarray, R: np.ndarray | None = None) -> np.ndarray:
         """Measurement update with ``z`` = H f + v (4 rows, or a subset with its ``R``).
@@ -223,15 +240,30 @@ class FlowKalmanFilter:
         """
         R = self.R if R is None else R
         y = z - H @ self.f
-        S = H @ self.P @ H.T + R
-        K = np.linalg.solve(S, H @ self.P).T
-        self.f = self.f + K @ y
-        IKH = np.eye(3) - K @ H
-        self.P = IKH @ self.P @ IKH.T + K @ R @ K.T  # Joseph form
-        self.G = self.G + H.T @ np.linalg.inv(R) @ H
         self.last_innovation = np.zeros(4)
         self.last_innovation[: len(y)] = y
+        with np.errstate(all="ignore"):
+            f, P, G = self._updated(y, H, R)
+        if not _finite(f, P, G):
+            # a non-finite reading (or an overflow): skip the update, so that the estimate, its
+            # covariance and the gramian stay finite whatever the sensors say
+            self.rejected += 1
+            return y
+        self.f, self.P, self.G = f, P, G
         return y
+
+    def _updated(self, y: np.ndarray, H: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, ...]:
+        """(f, P, G) after the update with innovation ``y`` (NaN if it cannot be computed)."""
+        try:
+            S = H @ self.P @ H.T + R
+            K = np.linalg.solve(S, H @ self.P).T
+            f = self.f + K @ y
+            IKH = np.eye(3) - K @ H
+            P = IKH @ self.P @ IKH.T + K @ R @ K.T  # Joseph form
+            G = self.G + H.T @ np.linalg.inv(R) @ H
+        except np.linalg.LinAlgError:
+            f = P = G = np.full((3, 3), np.nan)
+        return f, P, G
 
     def estimate(self) -> np.ndarray:
         """Flow estimate f (3,), body frame, m/s."""

@@ -28,7 +28,7 @@ from pydantic import (
     model_validator,
 )
 
-from .controllers.registry import controller_names, settings_for, settings_union
+from .controllers.registry import controller_names, settings_for, settings_union, split_controller
 from .controllers.solvers import solver_names
 from .dock import HeaveDock
 from .estimator import EstimatorSettings
@@ -470,15 +470,22 @@ class Mission(Strict):
         """The resolved mission as YAML text (stored in every results file)."""
         return yaml.safe_dump(self.resolved(), sort_keys=False)
 
-    def with_controller(self, name: str) -> Mission:
-        """A copy flown by controller ``name``: shared settings kept, its own defaulted.
+    def with_controller(self, spec: str) -> Mission:
+        """A copy flown by controller ``spec`` (``NAME`` or ``NAME@VARIANT``, e.g.
+        ``sequential@paper``): shared settings kept, its own defaulted, the variant set if given.
 
-        See :func:`auvdock.controllers.registry.settings_for`; ValueError for an unknown name.
+        See :func:`auvdock.controllers.registry.settings_for`; ValueError for an unknown name
+        or variant.
         """
-        if name == self.controller.type:
-            return self
-        m = self.model_copy(update={"controller": settings_for(name, self.controller)})
-        m._source = self._source
+        name, variant = split_controller(spec)
+        m = self
+        if name != self.controller.type:
+            m = self.model_copy(update={"controller": settings_for(name, self.controller)})
+            m._source = self._source
+        if variant is not None and variant != m.controller.variant:
+            c = m.controller.model_copy(update={"variant": variant})
+            m = m.model_copy(update={"controller": c})
+            m._source = self._source
         return m
 
     def with_updates(self, **changes: Any) -> Mission:

@@ -48,10 +48,19 @@ def test_oracle_docks_in_case2(oracle_case2) -> None:
 
 def test_naive_fails_in_case2() -> None:
     """The paper's finding: a controller blind to a 0.7 m/s current cannot close the last centimetres."""
-    s = simulate(mission("diagonal", **{"controller.type": "naive"}), timeout_s=40.0)
+    s = simulate(
+        mission("diagonal", **{"controller.type": "naive", "controller.variant": "paper"}), timeout_s=40.0
+    )
     assert not s.docked
     assert s.outcome["reason"] == "timeout"
     assert s.outcome["closest_approach_m"] > 0.05
+
+
+def test_offset_free_naive_docks_in_case2() -> None:
+    """The robust default estimates the current's steady drag as a disturbance: offset-free, the
+    same blind model docks."""
+    s = simulate(mission("diagonal", **{"controller.type": "naive"}), timeout_s=40.0)
+    assert s.docked, s.outcome
 
 
 def test_thrust_limits_never_exceeded(oracle_case2) -> None:

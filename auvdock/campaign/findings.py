@@ -6,7 +6,9 @@ made only of the campaign's figures: time to dock, closest approach against the 
 tolerance, path length, flow-estimate RMSE and final error, wall and set-up time.  No
 sentence is written in advance, so none can contradict the table it is printed beside.
 Only runs of the paper's six cases count (``paper_case`` 1-6) and only runs that ran
-(``status == "done"``).
+(``status == "done"``).  The paper's claims are about its own formulation: where the campaign
+has a controller's ``NAME@paper`` runs they are the ones checked, else its ``NAME`` runs.  The
+last finding sets the robust defaults (``NAME``) beside the paper variants (``NAME@paper``).
 """
 
 from __future__ import annotations
@@ -46,14 +48,19 @@ def _ok(v: Any) -> bool:
     return v is not None and isinstance(v, int | float) and math.isfinite(v)
 
 
-def _by(records: Iterable[dict[str, Any]], controller: str) -> dict[int, dict[str, Any]]:
+def _runs(records: Iterable[dict[str, Any]], label: str) -> dict[int, dict[str, Any]]:
     return {
         int(r["paper_case"]): r
         for r in records
-        if r.get("controller") == controller
-        and int(r.get("paper_case", 0) or 0) > 0
-        and r.get("status") == "done"
+        if r.get("controller") == label and int(r.get("paper_case", 0) or 0) > 0 and r.get("status") == "done"
     }
+
+
+def _by(records: Iterable[dict[str, Any]], controller: str) -> dict[int, dict[str, Any]]:
+    """The paper-case runs of ``controller`` in the paper's formulation (``NAME@paper`` if the
+    campaign has it, else ``NAME``), by case."""
+    records = list(records)
+    return _runs(records, f"{controller}@paper") or _runs(records, controller)
 
 
 def _cases(cases: Iterable[int]) -> str:
@@ -243,6 +250,37 @@ def _compute(records) -> Finding:
     return Finding(text, measured, verdict, " ".join(why))
 
 
+def _robust(records) -> Finding:
+    """Where the paper variants fail and the robust defaults do not, from the rows alone."""
+    text = "(not the paper's) The robust defaults dock wherever the paper variants do, and more"
+    rows, parts, why, worse = list(records), [], [], []
+    for ctrl, label in _LABEL.items():
+        paper, robust = _runs(rows, f"{ctrl}@paper"), _runs(rows, ctrl)
+        both = sorted(set(paper) & set(robust))
+        if not both:
+            continue
+        dp = {c for c in both if paper[c]["docked"]}
+        dr = {c for c in both if robust[c]["docked"]}
+        parts.append(f"{label}: paper {len(dp)}/{len(both)}, robust {len(dr)}/{len(both)}")
+        for c in sorted(dr - dp):
+            p = paper[c]
+            bits = [f"{label} case {c}: the paper variant"]
+            ca, tol = p.get("closest_approach_m"), p.get("tolerance_m")
+            if _ok(ca) and _ok(tol) and tol > 0:
+                bits.append(f"came no closer than {ca:.3f} m ({ca / tol:.1f} times the tolerance)")
+            if _ok(p.get("flow_final_error_m_s")):
+                bits.append(f"with its flow estimate {p['flow_final_error_m_s']:.3f} m/s off at the end")
+            bits.append(f"; the robust default docked at {robust[c]['time_to_dock_s']:.2f} s")
+            why.append(" ".join(bits[:-1]) + bits[-1] + ".")
+        for c in sorted(dp - dr):
+            worse.append(_why_not_docked(c, robust[c]).replace("Case", f"{label} (robust), case", 1))
+    if not parts:
+        return Finding(text, "needs NAME and NAME@paper runs of the same cases", "not run")
+    measured = "docked: " + "; ".join(parts)
+    verdict = "holds" if not worse else "differs"
+    return Finding(text, measured, verdict, " ".join(why + worse))
+
+
 def check_findings(records: Sequence[dict[str, Any]]) -> list[Finding]:
     """Check each finding of parameters.md section 5b against a campaign's table rows.
 
@@ -258,4 +296,5 @@ def check_findings(records: Sequence[dict[str, Any]]) -> list[Finding]:
         _travel(records),
         _rmse(records),
         _compute(records),
+        _robust(records),
     ]

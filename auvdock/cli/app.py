@@ -86,15 +86,26 @@ def split_list(values: list[str] | None) -> list[str]:
     return out
 
 
-def controller_list(controllers: list[str] | None) -> list[str]:
-    """``--controllers`` (comma-separated or repeated; default all five), or exit 2 naming the bad one."""
-    from ..controllers import CONTROLLER_NAMES
+def controller_list(controllers: list[str] | None, variants: bool = False) -> list[str]:
+    """``--controllers`` (comma-separated or repeated; ``NAME`` or ``NAME@VARIANT``; default all
+    five, and with ``variants`` each also ``@paper``), or exit 2 naming the bad one."""
+    from ..controllers import controller_specs
 
-    ctrls = split_list(controllers) or list(CONTROLLER_NAMES)
+    ctrls = split_list(controllers) or list(controller_specs(variants))
     for c in ctrls:
-        if c not in CONTROLLER_NAMES:
-            fail_input(f"--controllers: unknown controller {c!r} (known: {', '.join(CONTROLLER_NAMES)})")
+        check_controller(c, "--controllers")
     return ctrls
+
+
+def check_controller(spec: str, option: str = "--controller") -> str:
+    """A controller spec (``NAME`` or ``NAME@VARIANT``), or exit 2 with one line naming the problem."""
+    from ..controllers import split_controller
+
+    try:
+        split_controller(spec)
+    except ValueError as e:
+        fail_input(f"{option}: {e}")
+    return spec
 
 
 def _compile_notice(message: str):

@@ -105,7 +105,11 @@ def compare(
         None, help="Mission files or shipped mission names (default: the paper's six cases)."
     ),
     controllers: list[str] | None = typer.Option(
-        None, "--controllers", "-c", help="Controllers, comma-separated or repeated (default: all five)."
+        None,
+        "--controllers",
+        "-c",
+        help="Controllers, comma-separated or repeated, NAME or NAME@VARIANT (default: all five, "
+        "robust, and each @paper beside it).",
     ),
     jobs: int | None = typer.Option(
         None, "--jobs", "-j", min=1, help="Worker processes (default: all cores)."
@@ -144,7 +148,7 @@ def compare(
     from ..campaign.store import check_output
     from ..catalog import resolve
 
-    ctrls = controller_list(controllers)
+    ctrls = controller_list(controllers, variants=True)
     given = list(missions or [])
     paths = [resolve(m) for m in given] or default_missions()
     for m in paths:

@@ -15,8 +15,8 @@ import typer
 from rich.markup import escape
 
 from ..clock import Clock, wall_clock
-from ..mission import CONTROLLER_TYPES, MissionError
-from .app import app, console, err_console, exit_interrupted, fail_input, load_or_exit
+from ..mission import MissionError
+from .app import app, check_controller, console, err_console, exit_interrupted, fail_input, load_or_exit
 
 #: The clock ``fly`` and ``vehicle-sim`` wait and pace on.
 clock: Clock = wall_clock
@@ -62,8 +62,8 @@ def fly(
         if estimation not in ("truth", "filter"):
             fail_input(f"--estimation: must be truth or filter (got {estimation!r})")
         m = m.with_updates(estimation=estimation)
-    if controller is not None and controller not in CONTROLLER_TYPES:
-        fail_input(f"--controller: unknown controller {controller!r} (known: {', '.join(CONTROLLER_TYPES)})")
+    if controller is not None:
+        check_controller(controller)
     try:
         connection_string(port)
     except ValueError as e:
@@ -178,8 +178,8 @@ def replay(
     if not tlog.is_file():
         fail_input(f"{tlog}: no such file")
     m = load_or_exit(mission)
-    if controller is not None and controller not in CONTROLLER_TYPES:
-        fail_input(f"--controller: unknown controller {controller!r} (known: {', '.join(CONTROLLER_TYPES)})")
+    if controller is not None:
+        check_controller(controller)
     h5 = out if out is not None else tlog.with_name(f"{tlog.stem}_replay.h5")
     if h5.is_dir():
         fail_input(f"--out {h5}: is a directory")

@@ -12,8 +12,8 @@ import yaml
 from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from ..mission import CONTROLLER_TYPES, MissionError
-from .app import app, console, err_console, exit_interrupted, fail_input, load_or_exit
+from ..mission import MissionError
+from .app import app, check_controller, console, err_console, exit_interrupted, fail_input, load_or_exit
 
 if TYPE_CHECKING:
     from ..simulation import Progress as SimProgress
@@ -94,8 +94,8 @@ def sim(
     from ..simulation import simulate
 
     m = load_or_exit(mission)
-    if controller is not None and controller not in CONTROLLER_TYPES:
-        fail_input(f"--controller: unknown controller {controller!r} (known: {', '.join(CONTROLLER_TYPES)})")
+    if controller is not None:
+        check_controller(controller)
     if timeout is not None and not (timeout > 0 and np.isfinite(timeout)):
         fail_input(f"--timeout: must be a positive number of seconds (got {timeout})")
     if seed is not None:
@@ -112,7 +112,7 @@ def sim(
         if variant not in ("paper", "robust"):
             fail_input(f"--variant: must be paper or robust (got {variant!r})")
         m = m.with_updates(**{"controller.variant": variant})
-    name = m.controller.type
+    name = m.controller.type + ("_paper" if m.controller.variant == "paper" else "")
     out_dir = out if out is not None else Path(m.output.dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     h5 = out_dir / f"{m.name}_{name}.h5"

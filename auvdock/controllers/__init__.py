@@ -26,9 +26,11 @@ from .registry import (
     ControllerEntry,
     build_controller,
     controller_names,
+    controller_specs,
     resolve_solver,
     settings_for,
     settings_union,
+    split_controller,
 )
 from .solvers import SOLVERS, solver_names
 
@@ -42,6 +44,8 @@ __all__ = [
     "SOLVERS",
     "build_controller",
     "controller_names",
+    "controller_specs",
+    "split_controller",
     "resolve_solver",
     "settings_for",
     "settings_union",

@@ -40,6 +40,9 @@ __all__ = [
     "ControllerEntry",
     "CONTROLLERS",
     "controller_names",
+    "VARIANTS",
+    "split_controller",
+    "controller_specs",
     "settings_union",
     "settings_for",
     "resolve_solver",
@@ -124,6 +127,27 @@ def controller_names() -> tuple[str, ...]:
     return tuple(CONTROLLERS)
 
 
+#: ``controller.variant`` values: the paper's formulation, or the robust one (the default).
+VARIANTS = ("paper", "robust")
+
+
+def split_controller(spec: str) -> tuple[str, str | None]:
+    """A controller spec, ``NAME`` or ``NAME@VARIANT`` (``oracle``, ``sequential@paper``), as
+    ``(name, variant or None)``; ValueError naming the bad part."""
+    name, _, variant = str(spec).partition("@")
+    if name not in CONTROLLERS:
+        raise ValueError(f"unknown controller {name!r} (known: {', '.join(CONTROLLERS)})")
+    if "@" in str(spec) and variant not in VARIANTS:
+        raise ValueError(f"unknown variant {variant!r} of {name} (known: {', '.join(VARIANTS)})")
+    return name, (variant or None)
+
+
+def controller_specs(variants: bool = False) -> tuple[str, ...]:
+    """Every controller (``variants``: each also as ``NAME@paper``, after the defaults)."""
+    names = tuple(CONTROLLERS)
+    return names + tuple(f"{n}@paper" for n in names) if variants else names
+
+
 def settings_union() -> Any:
     """The mission's ``controller`` type: the registered settings classes, told apart by ``type``."""
     members = tuple(e.settings for e in CONTROLLERS.values())
@@ -162,9 +186,8 @@ def resolve_solver(name: str, controller: str) -> str:
         if name not in SOLVERS:
             raise ValueError(f"unknown solver {name!r} (known: auto, {', '.join(SOLVERS)})")
         return name
-    if controller not in CONTROLLERS:
-        raise ValueError(f"unknown controller {controller!r} (known: {', '.join(CONTROLLERS)})")
-    return CONTROLLERS[controller].auto_solver
+    name, _ = split_controller(controller)
+    return CONTROLLERS[name].auto_solver
 
 
 def build_controller(

@@ -95,10 +95,11 @@ class MPCSettings(Strict):
     """What every docking MPC has: horizon, period, weights, bounds and solver."""
 
     type: str = Field(description="controller type (auvdock.controllers.registry)")
-    variant: Literal["paper", "robust"] = Field(
-        default="paper",
-        description="paper: the paper's formulation exactly; robust: offset-free tracking (a lumped "
-        "disturbance estimated from the prediction error and predicted over the horizon)",
+    variant: Literal["robust", "paper"] = Field(
+        default="robust",
+        description="robust: offset-free tracking (a lumped disturbance and a velocity offset "
+        "estimated from the prediction error and predicted over the horizon) and, for Sequential "
+        "FSE-MPC, an MPC that knows the perception input; paper: the paper's formulation exactly",
     )
     disturbance_time_constant_s: PosFloat = Field(
         default=1.0, description="robust: time constant of the lumped-disturbance estimate, s"

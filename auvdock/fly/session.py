@@ -50,7 +50,7 @@ from pymavlink import mavutil
 from ..autopilot import build_autopilot
 from ..clock import Clock
 from ..controllers import Measurement
-from ..controllers.registry import CONTROLLERS
+from ..controllers.registry import CONTROLLERS, split_controller
 from ..controllers.status import FAILURE_CODES, STATUS_NAMES, STATUS_NO_STEP
 from ..dock import HeaveDock, TrackedDock
 from ..geometry import rotation_zyx
@@ -206,7 +206,7 @@ class FlySession:
                 f"fly flies ArduSub's VECTORED_6DOF frame (8 thrusters, BlueROV2 Heavy); "
                 f"{self.vehicle.name} has {self.vehicle.n_thrusters}",
             )
-        name = controller or mission.controller.type
+        name, _ = split_controller(controller or mission.controller.type)
         if mission.estimation == "truth" and CONTROLLERS[name].estimates_flow:
             raise MissionError(
                 mission.source or mission.name,

@@ -13,11 +13,12 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any
 
 import numpy as np
 from pydantic import Field, field_validator, model_validator
 
+from ..controllers.registry import split_controller
 from ..mission import CONTROLLER_TYPES, Mission, MissionError
 from ..schema import Strict, field_at
 
@@ -176,8 +177,9 @@ class Sweep(Strict):
     name: str | None = Field(default=None, description="sweep name (default: the file's stem)")
     description: str = Field(default="", description="free text")
     base: str = Field(description="base mission file, relative to the sweep file")
-    controllers: list[Literal["naive", "kinematic", "oracle", "sequential", "optimized"]] = Field(
-        default_factory=lambda: list(CONTROLLER_TYPES)
+    controllers: list[str] = Field(
+        default_factory=lambda: list(CONTROLLER_TYPES),
+        description="controllers, NAME or NAME@VARIANT (e.g. sequential@paper)",
     )
     seeds: Annotated[int, Field(ge=1)] = Field(default=1, description="seeds per point")
     grid: dict[str, list[Any]] = Field(default_factory=dict, description="dotted field -> values")
@@ -197,6 +199,7 @@ class Sweep(Strict):
         if not v:
             raise ValueError("must not be empty")
         for c in v:
+            split_controller(c)  # ValueError naming an unknown controller or variant
             if v.count(c) > 1:
                 raise ValueError(f"{c} is listed twice")
         return v
