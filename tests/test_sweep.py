@@ -172,7 +172,7 @@ BAD = [
     (
         "model_error: {n: 1, scale: {added_mas: 0.1}}",
         "model_error.scale.added_mas: is not a numeric vehicle parameter (scalable: added_mass, buoyancy_N, "
-        "inertia_kg_m2, linear_damping, mass_kg, quadratic_damping, r_b_m, r_g_m, weight_N)",
+        "inertia_kg_m2, linear_damping, mass_kg, quadratic_damping, r_b_m, r_g_m, thruster_gain, weight_N)",
     ),
     (
         "grid: {controller.alpah: [0.001]}",

@@ -200,8 +200,10 @@ class VehicleModel:
         return gvect(p.weight_N, p.buoyancy_N, eta[4], eta[3], p.r_g_m, p.r_b_m)
 
     def wrench(self, u: Sym) -> Sym:
-        """Body wrench tau = B u (6,) from thrusts u (n,) in N."""
-        return ca.mtimes(self.B, u)
+        """Body wrench tau = g B u (6,) from commanded thrusts u (n,) in N; g the
+        ``thruster_gain`` (1 unless a plant's model error scales it)."""
+        g = float(self.params.thruster_gain)
+        return ca.mtimes(self.B, u) if g == 1.0 else g * ca.mtimes(self.B, u)
 
     def body_flow(self, eta: Sym, flow_ned: Sym) -> Sym:
         """Flow in {b}: nu_c1 = R^T v_c (3,)."""

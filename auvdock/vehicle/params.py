@@ -38,7 +38,9 @@ class VehicleParams:
     ``r_g_m`` and ``r_b_m`` (CG and CB in {b}, m); ``inertia_kg_m2`` (Ix, Iy, Iz);
     ``added_mass`` (6 magnitudes: kg, kg m^2); ``linear_damping`` (N s/m, N m s/rad);
     ``quadratic_damping`` (N s^2/m^2, N m s^2/rad^2); thruster ``positions_m`` (n x 3)
-    and unit ``directions`` (n x 3) in {b}; ``thrust_limits_N`` (n x 2, [reverse, forward]).
+    and unit ``directions`` (n x 3) in {b}; ``thrust_limits_N`` (n x 2, [reverse, forward]);
+    ``thruster_gain``, the force the thrusters produce per force commanded (1: the T200 curve
+    as published; optional in a file, default 1; a model-error sweep scales it in the plant).
     The number of thrusters n comes from the file (8 for the Heavy, 6 for the standard frame).
     """
 
@@ -57,6 +59,7 @@ class VehicleParams:
     thruster_directions: np.ndarray
     thruster_voltage_V: int
     thrust_limits_N: np.ndarray
+    thruster_gain: float = 1.0
     raw: dict[str, Any] = field(repr=False, compare=False, default_factory=dict)
 
     @classmethod
@@ -144,6 +147,7 @@ class VehicleParams:
             thruster_directions=dirs,
             thruster_voltage_V=int(voltage),
             thrust_limits_N=lim,
+            thruster_gain=num("thruster_gain") if "thruster_gain" in d else 1.0,
             raw=copy.deepcopy(d),
         )
 
