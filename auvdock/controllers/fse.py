@@ -66,6 +66,10 @@ from .settings import MPCSettings
 __all__ = ["FSEMPC", "PerceptionLaw", "SequentialSettings", "OptimizedSettings"]
 
 
+#: Gate probability of the robust FSE filter's innovation test (chi-square, per update).
+INNOVATION_GATE = 0.999
+
+
 class SequentialSettings(MPCSettings):
     """Sequential FSE-MPC: the perception law (9), then the MPC with the estimated flow."""
 
@@ -262,6 +266,11 @@ class FSEMPC:
             gyro_std=sensors.gyro_std_rad_s,
             attitude_std=sensors.attitude_std_rad,
             relative_velocity_std=sensors.relative_velocity_std_m_s,
+            # robust: an accelerometer residual the flow cannot explain at this turn rate (a model
+            # error of 0.3 m/s^2 read at 1 mrad/s would be a 300 m/s current) is not taken
+            innovation_gate=INNOVATION_GATE if settings.variant == "robust" else None,
+            # robust: the pose's motion too (model-free: a thruster or drag error does not move it)
+            position_std=sensors.position_std_m if settings.variant == "robust" else None,
         )
         R_inv = np.diag(1.0 / np.array([e.accel_noise_var] * 3 + [e.depth_rate_noise_var]))
         gamma = e.forgetting_factor
