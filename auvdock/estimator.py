@@ -366,6 +366,7 @@ class FlowEstimator:
         relative_velocity_std: float = 0.0,
         innovation_gate: float | None = None,
         position_std: float | None = None,
+        model_accel_error: float = 0.0,
     ) -> None:
         self.vehicle = vehicle
         self.gyro_var = float(gyro_std) ** 2
@@ -375,6 +376,9 @@ class FlowEstimator:
         #: Noise variance of the pose's position, m^2: with it the filter also reads the pose's
         #: motion (model-free; None: not, the paper's filter, accelerometer and depth rate only).
         self.position_var = None if position_std is None else max(float(position_std), 1e-4) ** 2
+        #: Relative error of the model's predicted acceleration, added to the accelerometer rows'
+        #: noise as (error |nu_r1_dot|)^2 (0: none, the paper's filter).
+        self.model_accel_error = float(model_accel_error)
         self.vr_var = float(relative_velocity_std) ** 2
         self.dt = float(dt)
         self.prior_flow_ned = np.asarray(prior_flow_ned, dtype=float)
@@ -459,6 +463,10 @@ class FlowEstimator:
                 z = np.concatenate([np.asarray(accel, dtype=float) - nu_r1_dot, [0.0]])
                 R = self.kf.R.copy()
                 R[0:3, 0:3] += gyro_cov
+                if self.model_accel_error:
+                    # the model's own uncertainty: its predicted acceleration is only so good
+                    sigma = self.model_accel_error * float(np.linalg.norm(nu_r1_dot))
+                    R[0:3, 0:3] += sigma**2 * np.eye(3)
                 f_ned = R_nb @ self.kf.f
                 R[3, 3] += self.attitude_var * float(f_ned[0] ** 2 + f_ned[1] ** 2) + self.vr_var
                 if depth_rate is None:

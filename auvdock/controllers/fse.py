@@ -68,6 +68,11 @@ __all__ = ["FSEMPC", "PerceptionLaw", "SequentialSettings", "OptimizedSettings"]
 
 #: Gate probability of the robust FSE filter's innovation test (chi-square, per update).
 INNOVATION_GATE = 0.999
+#: Relative error of the model's predicted acceleration in the robust FSE filter: 20 %, the
+#: uncertainty of an ROV's identified added mass and damping (Wu 2018 gives no error bars; the
+#: BlueROV2 parameter sets in the literature differ by 20-50 % per coefficient) and of the T200
+#: curve over battery voltage.
+MODEL_ACCEL_ERROR = 0.2
 
 
 class SequentialSettings(MPCSettings):
@@ -271,6 +276,7 @@ class FSEMPC:
             innovation_gate=INNOVATION_GATE if settings.variant == "robust" else None,
             # robust: the pose's motion too (model-free: a thruster or drag error does not move it)
             position_std=sensors.position_std_m if settings.variant == "robust" else None,
+            model_accel_error=MODEL_ACCEL_ERROR if settings.variant == "robust" else 0.0,
         )
         R_inv = np.diag(1.0 / np.array([e.accel_noise_var] * 3 + [e.depth_rate_noise_var]))
         gamma = e.forgetting_factor
