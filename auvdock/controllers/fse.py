@@ -298,11 +298,12 @@ class FSEMPC:
                 G = _sym_from6(extra[0:6])
                 F0 = extra[6]
                 depth_row = extra[7:10]
+                weight = extra[10]  # 1 (paper); robust: the share of the prior uncertainty left
                 J = 0
                 for k in range(1, X.shape[1]):
                     G = gramian_step(G, X[ANG, k], depth_row, dt, R_inv, gamma, ca)
                     J += information_lower_bound(G) - F0
-                return -alpha * J
+                return -alpha * weight * J
 
             self.mpc = build_mpc(
                 settings,
@@ -311,10 +312,19 @@ class FSEMPC:
                 "full",
                 solver,
                 objective_extra=info_term,
-                extra_params=10,
+                extra_params=11,
                 extra_hessian=solver == "ipopt",
                 state_from_flow=True,
             )
+
+    def _info_weight(self, P: np.ndarray) -> float:
+        """The weight of the information reward: 1 in the paper; robust: the share of the prior's
+        standard deviation still left in the estimate, ``sqrt(lambda_max(P) / prior_var)`` (capped at
+        1), so that a vehicle that knows the current stops turning for it."""
+        if self.variant == "paper":
+            return 1.0
+        lam = float(np.max(np.linalg.eigvalsh(0.5 * (P + P.T))))
+        return float(min(1.0, np.sqrt(max(lam, 0.0) / self.estimator.prior_var)))
 
     def reset(self) -> None:
         self.estimator.reset()
@@ -346,7 +356,9 @@ class FSEMPC:
         else:
             G = self.estimator.gramian()
             depth_row = self._rotation(est.state[ATT])[2, :]
-            extra = np.concatenate([_six(G), [float(information_lower_bound(G))], depth_row])
+            extra = np.concatenate(
+                [_six(G), [float(information_lower_bound(G))], depth_row, [self._info_weight(est.covariance)]]
+            )
             r = self.mpc.solve(meas.t, est.state, u_prev, est.flow_ned, extra=extra)
         series = {
             "flow_estimate_m_s": est.flow_body,
