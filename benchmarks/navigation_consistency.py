@@ -48,8 +48,9 @@ def _figures(title: str, t: np.ndarray, nees: np.ndarray, normed: np.ndarray, nz
     )
     q = np.percentile(per_seed, [0, 25, 50, 75, 100])
     print(
-        "  per-seed time-averaged NEES: min {:.1f}  p25 {:.1f}  median {:.1f}  p75 {:.1f}  "
-        "max {:.1f}".format(*q)
+        "  per-seed time-averaged NEES: min {:.1f}  p25 {:.1f}  median {:.1f}  p75 {:.1f}  max {:.1f}".format(
+            *q
+        )
     )
     comp = np.mean(normed**2, axis=(0, 1))
     order = np.argsort(comp)[::-1]
