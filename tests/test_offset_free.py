@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers.plant import plant
 
 from auvdock.autopilot import Autopilot, build_autopilot
 from auvdock.controllers import Measurement
@@ -20,18 +21,6 @@ from auvdock.simulation import simulate
 ROOT = Path(__file__).resolve().parents[1]
 TANK = ROOT / "missions" / "tank_0p6hz.yaml"
 CASE2 = ROOT / "missions" / "diagonal.yaml"
-
-
-def _plant(m, **scale):
-    """The mission with its TRUTH vehicle's parameters scaled (model error in the plant only)."""
-    p = m.build_vehicle().model.params
-    ov = {}
-    for name, factor in scale.items():
-        base = getattr(p, name)
-        ov[f"vehicle.overrides.{name}"] = (
-            (np.asarray(base) * factor).tolist() if np.ndim(base) else base * factor
-        )
-    return m.with_updates(**ov)
 
 
 def _run(m, truth, variant: str, autopilot_cls=Autopilot):
@@ -47,7 +36,7 @@ def test_plant_error_leaves_no_offset_with_the_robust_variant() -> None:
     paper's Oracle holds off the dock, the robust one docks, and its disturbance estimate is the
     extra buoyancy (up = -z in NED)."""
     m = load_mission(TANK).with_updates(**{"controller.type": "oracle", "docking.timeout_s": 40.0})
-    truth = _plant(m, buoyancy_N=1.03, linear_damping=0.7, quadratic_damping=0.7)
+    truth = plant(m, buoyancy_N=1.03, linear_damping=0.7, quadratic_damping=0.7)
     extra_up = m.build_vehicle().model.params.buoyancy_N * 0.03
     paper, _ = _run(m, truth, "paper")
     robust, ap = _run(m, truth, "robust")
@@ -64,7 +53,7 @@ def test_half_buoyancy_no_added_mass_docks_with_the_robust_variant() -> None:
     m = load_mission(TANK).with_updates(**{"controller.type": "oracle", "docking.timeout_s": 40.0})
     p = m.build_vehicle().model.params
     net = p.buoyancy_N - p.weight_N
-    truth = _plant(m, buoyancy_N=(p.weight_N + net / 2) / p.buoyancy_N, added_mass=0.0)
+    truth = plant(m, buoyancy_N=(p.weight_N + net / 2) / p.buoyancy_N, added_mass=0.0)
     paper, _ = _run(m, truth, "paper")
     robust, _ = _run(m, truth, "robust")
     print(f"paper: docked {paper['docked']}, closest {paper['closest_approach_m']:.3f} m")

@@ -11,6 +11,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from helpers.plant import plant
 
 from auvdock.mission import load_mission
 from auvdock.simulation import simulate
@@ -32,17 +33,6 @@ def test_robust_fse_docks_in_cases_3_and_4(controller, case) -> None:
     assert o["solver_failures"] == 0
 
 
-def _plant(m, **scale):
-    p = m.build_vehicle().model.params
-    ov = {}
-    for name, factor in scale.items():
-        base = getattr(p, name)
-        ov[f"vehicle.overrides.{name}"] = (
-            [float(x) * factor for x in base] if hasattr(base, "__len__") else base * factor
-        )
-    return m.with_updates(**ov)
-
-
 @pytest.mark.parametrize("controller", ["sequential", "optimized"])
 def test_robust_fse_docks_with_plant_model_error(controller) -> None:
     """Still water (the tank trial), a plant whose thrusters push 88 % of the command, with
@@ -53,7 +43,7 @@ def test_robust_fse_docks_with_plant_model_error(controller) -> None:
     from auvdock.autopilot import build_autopilot
 
     m = load_mission(ROOT / "missions" / "tank_0p6hz.yaml").with_updates(**{"controller.type": controller})
-    truth = _plant(m, thruster_gain=0.88, buoyancy_N=1.0165, linear_damping=1.3, quadratic_damping=1.3)
+    truth = plant(m, thruster_gain=0.88, buoyancy_N=1.0165, linear_damping=1.3, quadratic_damping=1.3)
     results = {}
     for variant in ("paper", "robust"):
         mv = m.with_updates(**{"controller.variant": variant})

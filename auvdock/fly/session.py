@@ -126,10 +126,6 @@ class _SigintLatch:
             self._installed = False
 
 
-def _rotation(angles: np.ndarray) -> np.ndarray:
-    return rotation_zyx(float(angles[0]), float(angles[1]), float(angles[2]))
-
-
 class FlySession:
     """One docking session on a vehicle.
 
@@ -537,7 +533,7 @@ class FlySession:
         self._last_target = id(lt)
         rel = np.array([lt.x, lt.y, lt.z])
         if lt.frame == mavutil.mavlink.MAV_FRAME_BODY_FRD:
-            p = x[POS] + _rotation(x[ATT]) @ rel
+            p = x[POS] + rotation_zyx(*map(float, x[ATT])) @ rel
         elif lt.frame == mavutil.mavlink.MAV_FRAME_LOCAL_NED:
             p = self._frame.position(rel)
         else:
