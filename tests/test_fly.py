@@ -10,6 +10,7 @@ random moments, is tests/test_fly_sigint.py (real processes on the wall clock).
 from __future__ import annotations
 
 import json
+import re
 import signal
 
 import h5py
@@ -27,6 +28,7 @@ from helpers.loopback import (
 )
 from pymavlink import mavutil
 
+from auvdock.cli import app
 from auvdock.dock import HeaveDock
 from auvdock.fly import FlySession
 from auvdock.hardware.link import MavlinkLink, connection_string
@@ -47,6 +49,33 @@ def test_connection_strings() -> None:
     assert connection_string("/dev/ttyACM0,115200") == "/dev/ttyACM0,115200"
     with pytest.raises(ValueError, match="outside 1..65535"):
         connection_string("udp:70000")
+    assert connection_string("tcp:192.168.2.2:5777") == "tcp:192.168.2.2:5777"
+    assert connection_string("COM3") == "COM3"
+    for bad, message in [
+        ("bogus:xyz", "not a connection string (expected udp:PORT"),
+        ("udpout:127.0.0.1:notaport", "port 'notaport' is not a number"),
+        ("", "empty port"),
+    ]:
+        with pytest.raises(ValueError, match=re.escape(message)):
+            connection_string(bad)
+
+
+@pytest.mark.parametrize(
+    ("command", "port", "message"),
+    [
+        ("fly", "bogus:xyz", "not a connection string (expected udp:PORT, udpin:HOST:PORT, udpout:HOST:PORT, "
+         "tcp:HOST:PORT, tcpin:HOST:PORT or a serial device[,BAUD])"),
+        ("vehicle-sim", "udpout:127.0.0.1:notaport", "port 'notaport' is not a number"),
+        ("fly", "/dev/ttyNOPE0,115200", "could not open port /dev/ttyNOPE0"),
+    ],
+)  # fmt: skip
+def test_bad_port_is_one_line(loop, tmp_path, command, port, message) -> None:
+    args = [command, str(TANK)] if command == "fly" else [command]
+    res = loop.runner.invoke(app, [*args, "--port", port, "--out" if command == "fly" else "--speed",
+                                   str(tmp_path) if command == "fly" else "1"])  # fmt: skip
+    assert res.exit_code == 2, res.output + res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"error: --port {port}: ") and message in lines[0]
 
 
 def test_fly_arm_docks_in_the_tank(loop, tmp_path) -> None:

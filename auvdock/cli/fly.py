@@ -136,8 +136,13 @@ def vehicle_sim(
 ) -> None:
     """Run auvdock's 6-DOF simulator as an ArduSub MAVLink vehicle (for rehearsing and testing fly)."""
     from ..catalog import missions_dir
+    from ..hardware.link import connection_string
     from ..hardware.vehicle_sim import VehicleSim
 
+    try:
+        port = connection_string(port)
+    except ValueError as e:
+        fail_input(f"--port {port}: {e}")
     path = mission if mission is not None else missions_dir() / "tank_0p6hz.yaml"
     m = load_or_exit(path)
     console.print(
@@ -148,7 +153,7 @@ def vehicle_sim(
     try:
         sim = VehicleSim(m, port=port, speed=speed, clock=clock, noise=noise)
         sim.run_forever()
-    except OSError as e:
+    except (OSError, ValueError) as e:
         fail_input(f"--port {port}: {e}")
     console.print(f"stopped at t = {sim.t:.1f} s; events: " + ", ".join(e.kind for e in sim.events))
 

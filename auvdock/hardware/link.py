@@ -54,31 +54,55 @@ class LinkError(RuntimeError):
     """The vehicle did not answer as expected (no heartbeat, command refused, ...)."""
 
 
-_SHORT_UDP = re.compile(r"^udp:(\d{1,5})$")
+_SHORT_UDP = re.compile(r"^udp:(\d+)$")
+_NETWORK = re.compile(r"^(udp|udpin|udpout|udpbcast|tcp|tcpin):([^:]+):([^:]*)$")
+_SERIAL = re.compile(r"^(/dev/[^,\s]+|COM\d+)(?:,(\d+))?$", re.IGNORECASE)
+
+#: What ``--port`` takes, for error messages.
+PORT_FORMS = (
+    "udp:PORT, udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT, tcpin:HOST:PORT or a serial device[,BAUD]"
+)
+
+
+def _port_number(text: str) -> int:
+    if not text.isdigit():
+        raise ValueError(f"port {text!r} is not a number")
+    n = int(text)
+    if not 1 <= n <= 65535:
+        raise ValueError(f"port number {n} outside 1..65535")
+    return n
 
 
 def connection_string(port: str) -> str:
-    """The pymavlink connection string for ``--port``.
+    """The pymavlink connection string for ``--port``, checked.
 
-    ``udp:PORT`` (the short form, which pymavlink rejects) means listen on
-    ``0.0.0.0:PORT``, where BlueOS sends the vehicle's MAVLink; every other pymavlink form
-    (``udpin:``, ``udpout:``, ``tcp:``, a serial device with ``,baud``) passes unchanged.
+    ``udp:PORT`` (the short form, which pymavlink rejects) means listen on ``0.0.0.0:PORT``,
+    where BlueOS sends the vehicle's MAVLink; ``udpin:``, ``udpout:``, ``udp:``, ``udpbcast:``,
+    ``tcp:`` and ``tcpin:`` with ``HOST:PORT``, and a serial device (``/dev/ttyACM0``,
+    ``COM3``) with an optional ``,BAUD``, pass unchanged.
 
     Raises
     ------
     ValueError
-        For an empty string or a port number outside 1..65535.
+        Naming the problem (an empty string, an unknown form, a port that is not a number or
+        outside 1..65535, a baud rate that is not a positive number).
     """
     p = port.strip()
     if not p:
         raise ValueError("empty port")
     m = _SHORT_UDP.match(p)
     if m:
-        n = int(m.group(1))
-        if not 1 <= n <= 65535:
-            raise ValueError(f"port number {n} outside 1..65535")
-        return f"udpin:0.0.0.0:{n}"
-    return p
+        return f"udpin:0.0.0.0:{_port_number(m.group(1))}"
+    m = _NETWORK.match(p)
+    if m:
+        _port_number(m.group(3))
+        return p
+    m = _SERIAL.match(p)
+    if m:
+        if m.group(2) is not None and int(m.group(2)) <= 0:
+            raise ValueError(f"baud rate {m.group(2)} must be positive")
+        return p
+    raise ValueError(f"not a connection string (expected {PORT_FORMS})")
 
 
 class MavlinkLink:
