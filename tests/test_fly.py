@@ -86,6 +86,7 @@ def test_fly_arm_docks_in_the_tank(loop, tmp_path) -> None:
     assert "docked at t =" in res.output
     kinds = [e.kind for e in sim.events]
     assert kinds[0] == "arm" and kinds[-1] == "disarm"
+    assert "vehicle: Arming motors" in res.output  # the vehicle's STATUSTEXT, shown and recorded
     assert not sim.armed
     h5 = next(tmp_path.glob("tank_0p6hz_oracle_fly_*.h5"))
     tlog = h5.with_suffix(".tlog")
@@ -94,6 +95,7 @@ def test_fly_arm_docks_in_the_tank(loop, tmp_path) -> None:
     assert r.attrs["complete"]
     out = r.outcome()
     assert out["docked"] and out["reason"] == "docked"
+    assert "vehicle: Arming motors" in out["events_json"]
     assert out["closest_approach_m"] <= 0.05
     # the state in which docking was declared is the file's last row, within the tolerance
     assert r.distance_m[-1] == r.distance_m.min() <= 0.05

@@ -308,6 +308,9 @@ class FlySession:
         the tlog's clock).  The link marks the moment in the tlog (for replay)."""
         now_us, messages = self.link.drain(marker, value)
         self.telemetry.feed(messages)
+        for _, msg in messages:  # the vehicle's own words (pre-arm checks, failsafes), shown and recorded
+            if msg.get_type() == "STATUSTEXT":
+                self._event(f"vehicle: {str(msg.text).strip()}")
         return now_us
 
     def _wait_telemetry(self) -> None:
