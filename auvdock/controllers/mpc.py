@@ -23,7 +23,12 @@ that with the updated ``d`` its prediction of the measured velocity is right)::
     d <- clip(d + (dt / T_d) [R delta_(1:3); delta_(4:6)], -d_max, d_max)
 
 (a first-order filter of time constant ``T_d`` on the wrench that explains the error;
-``d_max`` the vehicle's largest wrench per axis, ``|B| u_max``).  A steady model error, a
+``d_max`` the vehicle's largest wrench per axis, ``|B| u_max``).  The position's prediction
+error updates a velocity offset the same way, ``v <- clip(v + (dt / T_d) e_p / dt)`` in {n}
+(|v| <= :data:`VELOCITY_OFFSET_MAX`), added to the state's velocity before the wrench update and
+the solve: an FSE controller's velocity ``nu_r + R^T v_c_hat`` is biased by its estimate's error,
+which no force explains.  With ``state_from_flow`` a new flow estimate re-expresses the previous
+state instead of reading as a force.  A steady model error, a
 steady current-estimate error or an unmodelled buoyancy then leaves no steady position
 error: at a steady state the prediction is exact and the cost's minimum is on the reference
 (Pannocchia and Rawlings, AIChE J. 49(2), 2003; Maeder, Borrelli and Morari, Automatica 45(6), 2009).
