@@ -283,6 +283,43 @@ class FlySpec(Strict):
         "(each one flown with the bounded fallback: the last plan briefly, then neutral)",
     )
     geofence: GeofenceSpec = Field(default_factory=GeofenceSpec)
+    telemetry_timeout_s: PosFloat = Field(
+        default=60.0,
+        description="wait this long for the telemetry the estimation needs (ArduSub's position "
+        "estimate comes about 40 s after boot in SITL), s",
+    )
+    arm_timeout_s: PosFloat = Field(
+        default=30.0, description="keep trying to arm (pre-arm checks may still be settling) this long, s"
+    )
+    start_depth_tolerance_m: PosFloat = Field(
+        default=0.3,
+        description="refuse to arm unless the pressure sensor's depth is this close to the mission's "
+        "start depth, m",
+    )
+    min_battery_v: NonNegFloat = Field(
+        default=13.6,
+        description="abort below this battery voltage (SYS_STATUS), V (3.4 V per cell of the "
+        "BlueROV2's 4S pack; 0: no floor)",
+    )
+    time_limit_s: PosFloat | None = Field(
+        default=None,
+        description="abort this long after arming (a dry run: after the start), s "
+        "(default: docking.timeout_s + 60 s)",
+    )
+    rates_refresh_s: PosFloat = Field(
+        default=5.0,
+        description="re-request the telemetry rates this often (a ground station may reset them), s",
+    )
+    hold_bandwidth_rad_s: PosFloat = Field(
+        default=1.0,
+        description="the lost-camera hold's depth and attitude loop: natural frequency, rad/s "
+        "(critically damped)",
+    )
+    parameters: dict[str, float] = Field(
+        default_factory=dict,
+        description="vehicle parameters that must have these values before arming (e.g. the "
+        "MOT_n_DIRECTION found in a thruster test)",
+    )
 
 
 class CameraMountSpec(Strict):

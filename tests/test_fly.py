@@ -160,16 +160,20 @@ def test_lost_telemetry_neutral_then_abort(loop, tmp_path) -> None:
 
 
 def test_geofence_aborts_and_disarms(loop, tmp_path) -> None:
-    mission = write_mission(tmp_path / "fence.yaml", fly={"geofence": {"max_distance_m": 0.3}})
-    sim, port = loop.vehicle(mission)
+    """A 5 m/s current (far beyond the thrusters) the mission does not know sweeps the vehicle
+    out of a 2.5 m fence: abort on the vehicle's own position estimate, disarm."""
+    mission = write_mission(tmp_path / "fence.yaml", fly={"geofence": {"max_distance_m": 2.5}})
+    flow = {"case": None, "type": "constant", "velocity_ned_m_s": [0.0, -5.0]}
+    water = write_mission(tmp_path / "water.yaml", base=mission, flow=flow)
+    sim, port = loop.vehicle(water)
     res = loop.fly(port, tmp_path, "--arm", "--timeout", "30", mission=mission)
     assert res.exit_code == 3, res.output
     assert res.stderr.strip().startswith("aborted: geofence: ")
-    assert "(limit 0.3 m)" in res.stderr
+    assert "m from the start (limit 2.5 m)" in res.stderr
     assert not sim.armed
     assert [e.kind for e in sim.events][-1] == "disarm"
     r = read_run(next(tmp_path.glob("*.h5")))
-    assert np.linalg.norm(r.state[-1, 0:2] - r.state[0, 0:2]) <= 0.3  # every flown step inside
+    assert np.linalg.norm(r.state[-1, 0:2] - r.state[0, 0:2]) <= 2.5  # every flown step inside
 
 
 def test_interrupted_session_disarms_and_keeps_results(loop, tmp_path) -> None:

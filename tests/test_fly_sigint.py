@@ -35,7 +35,8 @@ MAX_DELAY_S = 4.5  # after the command's first line; a run lasts 6 s or more fro
 def _fly_interrupted(delay_s: float, out: Path, mission) -> dict:
     """One fly process, SIGINT after ``delay_s`` (s after its first line); what happened."""
     port = free_port()
-    sim = VehicleSim(mission, port=f"udpout:{HOST}:{port}").start()  # wall clock
+    # wall clock; held at the start while disarmed, as vehicle-sim does
+    sim = VehicleSim(mission, port=f"udpout:{HOST}:{port}", hold_start=True).start()
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     args = ["fly", str(TANK), "--port", f"udpin:{HOST}:{port}", "--out", str(out), "--arm", "--timeout", "4"]
     proc = subprocess.Popen(

@@ -99,9 +99,12 @@ def fly(
             last[0] = now
             console.print(f"  t = {t:6.2f} s  distance {dist:6.3f} m  solver {status}")
 
-    result = session.run(progress=on_step)
-    for t_ev, text in result.events:
+    def on_event(
+        t_ev: float, text: str
+    ) -> None:  # as they happen: waits, pre-arm reasons, the vehicle's words
         console.print(f"  [dim]{t_ev:7.2f} s[/dim] {escape(text)}", highlight=False, soft_wrap=True)
+
+    result = session.run(progress=on_step, on_event=on_event)
     if result.results_path is not None:
         console.print(f"results: {result.results_path}", highlight=False, soft_wrap=True)
     console.print(f"tlog: {tlog}", highlight=False, soft_wrap=True)
@@ -112,6 +115,13 @@ def fly(
     elif result.reason == "interrupted":
         where = f"; results in {result.results_path}" if result.results_path is not None else ""
         exit_interrupted(f"{result.message}{where}")  # "interrupted (Ctrl-C)...; results in ..."
+    elif result.reason == "takeover":
+        err_console.print(
+            f"takeover: {result.message}; fly released the channels and stopped",
+            markup=False,
+            highlight=False,
+            soft_wrap=True,
+        )
     else:
         err_console.print(f"{result.reason}: {result.message}", markup=False, highlight=False, soft_wrap=True)
     raise typer.Exit(code=result.exit_code)
@@ -128,6 +138,12 @@ def vehicle_sim(
         None, "--mission", "-m", help="Mission for the start state, vehicle and flow (default: tank_0p6hz)."
     ),
     speed: float = typer.Option(1.0, "--speed", min=0.01, help="Simulated seconds per wall-clock second."),
+    hold: bool = typer.Option(
+        True,
+        "--hold-start/--no-hold-start",
+        help="Hold the vehicle at the mission's start while disarmed (as a pilot who dives it there "
+        "before each flight), else it floats up from the start (the BlueROV2 Heavy is 2 N buoyant).",
+    ),
     noise: bool = typer.Option(
         True,
         "--sensor-noise/--no-sensor-noise",
@@ -147,11 +163,11 @@ def vehicle_sim(
     m = load_or_exit(path)
     console.print(
         f"[bold]vehicle-sim[/bold]: ArduSub-like BlueROV2 (sysid 1) on {port}, mission {m.name}, "
-        f"speed {speed:g}x, flow {m.build_flow().describe()}, sensor noise {'on' if noise else 'off'}; "
-        "Ctrl-C to stop"
+        f"speed {speed:g}x, flow {m.build_flow().describe()}, sensor noise {'on' if noise else 'off'}, "
+        f"{'held at the start while disarmed' if hold else 'free from the start'}; Ctrl-C to stop"
     )
     try:
-        sim = VehicleSim(m, port=port, speed=speed, clock=clock, noise=noise)
+        sim = VehicleSim(m, port=port, speed=speed, clock=clock, noise=noise, hold_start=hold)
         sim.run_forever()
     except (OSError, ValueError) as e:
         fail_input(f"--port {port}: {e}")

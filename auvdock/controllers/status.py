@@ -10,6 +10,8 @@ code   name                meaning
                            failures in a row (mpc.FALLBACK_RULE): zero thrust (neutral)
 4      ``no_step``         no controller step: the row records the run's final state
 5      ``settling``        no controller step: the navigation filter is settling, thrust zero
+6      ``hold``            no controller step: the dock is out of sight (fly's camera); depth
+                           and attitude held (auvdock.controllers.hold)
 =====  ==================  ===============================================================
 
 A controller that is not an optimiser reports ``ok``.  Results files store this table as
@@ -25,6 +27,7 @@ __all__ = [
     "STATUS_FALLBACK_ZERO",
     "STATUS_NO_STEP",
     "STATUS_SETTLING",
+    "STATUS_HOLD",
     "STATUS_NAMES",
     "FAILURE_CODES",
 ]
@@ -35,6 +38,7 @@ STATUS_FAILED = 2
 STATUS_FALLBACK_ZERO = 3
 STATUS_NO_STEP = 4
 STATUS_SETTLING = 5
+STATUS_HOLD = 6
 
 #: Code -> name.
 STATUS_NAMES: dict[int, str] = {
@@ -44,6 +48,7 @@ STATUS_NAMES: dict[int, str] = {
     STATUS_FALLBACK_ZERO: "fallback_zero",
     STATUS_NO_STEP: "no_step",
     STATUS_SETTLING: "settling",
+    STATUS_HOLD: "hold",
 }
 
 #: The codes that count as solver trouble (``solver_failures`` of a run).

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from ..controllers.status import STATUS_FALLBACK_ZERO, STATUS_NAMES, STATUS_NO_STEP
+from ..controllers.status import STATUS_HOLD, STATUS_NAMES, STATUS_NO_STEP
 from ..geometry import rotation_zyx
 from ..interrupts import SigintDeferred
 from ..results import RunWriter
@@ -119,16 +119,18 @@ class FlyRecorder:
         channels: np.ndarray,
         telemetry: dict[str, Any],
         series: dict,
-        status: int = STATUS_FALLBACK_ZERO,
+        status: int = STATUS_HOLD,
+        thrust: np.ndarray | None = None,
     ) -> None:
-        """A step held at neutral thrust (no dock to steer to), or with ``status`` no_step the
-        final state of the session (the one in which docking is declared), as ``sim`` writes it."""
+        """A step without a controller step: with ``status`` hold, the dock out of sight and
+        ``thrust`` (N, default zero) the hold's; with no_step the final state of the session
+        (the one in which docking is declared), as ``sim`` writes it."""
         nan_series = {name: np.full(shape, np.nan) for name, shape in self.autopilot_series.items()}
-        zero = np.zeros(self.vehicle.n_thrusters)
+        applied = np.zeros(self.vehicle.n_thrusters) if thrust is None else np.asarray(thrust, dtype=float)
         self._row(
             t,
             x,
-            zero,
+            applied,
             status,
             0.0 if status != STATUS_NO_STEP else float("nan"),
             channels,

@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 from pymavlink import mavutil
 
+from ..hardware.link import for_session
 from ..mission import Mission
 from .session import FlyAbortError, FlyResult, FlySession
 
@@ -122,7 +123,10 @@ class ReplayLink:
         self._i = 0
         self.target_system = 1
         self.markers = 0
-        if not any(_is_marker(m) for _, m in self._msgs):
+        own = [m.get_srcSystem() for _, m in self._msgs if _is_marker(m)]
+        #: The flight's own system id (the one that wrote the markers).
+        self.sysid = own[0] if own else 255
+        if not own:
             raise ReplayError(
                 f"{self.path}: no auvdock step markers (not written by auvdock fly, or by a version "
                 "before replay existed)"
@@ -163,13 +167,28 @@ class ReplayLink:
                 self.clock.t = stamp * 1e-6
                 self.markers += 1
                 return stamp, taken
-            if msg.get_srcSystem() == self.target_system or msg.get_type() == "LANDING_TARGET":
+            if for_session(msg, self.target_system, self.sysid):
                 taken.append((stamp, msg))
         raise FlyAbortError("the tlog ends here (where the flight ended)")
 
     # -- what a session sends: nothing, in a replay ---------------------------------------------
     def request_rate(self, message_id: int, rate_hz: float) -> int:
         return int(mavutil.mavlink.MAV_RESULT_ACCEPTED)
+
+    def send_rate(self, message_id: int, rate_hz: float) -> None:
+        return None
+
+    def send_command(self, command: int, *params: float) -> None:
+        return None
+
+    def send_arm(self, arm: bool) -> None:
+        return None
+
+    def send_mode(self, name: str) -> None:
+        return None
+
+    def request_parameters(self, names: Any) -> None:
+        return None
 
     def note(self, text: str) -> None:
         return None

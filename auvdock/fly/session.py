@@ -37,7 +37,9 @@ and the results file is always closed readable.
 
 from __future__ import annotations
 
+import collections
 import dataclasses
+import json
 import signal
 import threading
 from dataclasses import dataclass, field
@@ -50,34 +52,71 @@ from pymavlink import mavutil
 from ..autopilot import build_autopilot
 from ..clock import Clock
 from ..controllers import Measurement
+from ..controllers.hold import DepthAttitudeHold
 from ..controllers.registry import CONTROLLERS, split_controller
 from ..controllers.status import FAILURE_CODES, STATUS_NAMES, STATUS_NO_STEP
 from ..dock import HeaveDock, TrackedDock
 from ..geometry import rotation_zyx
-from ..hardware.ardusub import NEUTRAL_CHANNELS, channels_for_thrust, thrust_from_channels
-from ..hardware.link import LinkError, MavlinkLink
+from ..hardware.ardusub import (
+    MODES,
+    NEUTRAL_CHANNELS,
+    channels_for_thrust,
+    channels_for_wrench,
+    thrust_from_channels,
+)
+from ..hardware.link import PILOT_INPUT_TYPES, LinkError, MavlinkLink
 from ..interrupts import SigintDeferred
 from ..mission import Mission, MissionError
+from ..stderr_capture import StderrCapture
 from ..vehicle.state import ATT, POS
 from .camera import CAMERA_SERIES, CameraOpenError, CameraTracking
+from .conformance import PARAMETER_GROUPS, check_parameters, describe, parameter_names
 from .record import FlyRecorder
-from .telemetry import TELEMETRY_MESSAGES, TelemetrySensors, geofence_violation
+from .telemetry import PRESSURE_PARAMETERS, TELEMETRY_MESSAGES, TelemetrySensors, geofence_violation
 
-__all__ = ["FlySession", "FlyResult", "FlyAbortError"]
+__all__ = ["FlySession", "FlyResult", "FlyAbortError", "FlyTakeoverError", "EXIT_CODES"]
 
 #: ArduSub's VECTORED_6DOF frame (the BlueROV2 Heavy), the only one the channel mapping knows.
 N_THRUSTERS = 8
+
+
+#: How long the parameters may take to arrive (ArduPilot answers each PARAM_REQUEST_READ within
+#: a few ms, and nothing for a name it does not have), s.
+PARAM_TIMEOUT_S = 3.0
+#: Arming is retried this often while the vehicle refuses (pre-arm checks settling), s.
+ARM_RETRY_S = 2.0
+#: A mode change is waited for this long, s.
+MODE_TIMEOUT_S = 3.0
+#: Waits show their progress this often, s.
+PROGRESS_EVERY_S = 5.0
+#: Time constant of the battery voltage's low-pass (thrust makes the voltage sag briefly), s.
+BATTERY_FILTER_S = 1.0
+#: RC_CHANNELS showing channels fly did not send in this many messages in a row: another station.
+FOREIGN_CHANNELS_IN_A_ROW = 2
+#: Overrides sent within this window (us) before an RC_CHANNELS message may be what it shows.
+SENT_WINDOW_US = 1_000_000
+#: Streams requested besides TELEMETRY_MESSAGES: name -> rate (None: the control rate): the
+#: HEARTBEAT (armed bit, mode: a takeover is seen within a control period), SYS_STATUS
+#: (battery), RC_CHANNELS (the channels the vehicle uses: another station's joystick).
+CONTROL_STREAMS: dict[str, float | None] = {"HEARTBEAT": None, "SYS_STATUS": 2.0, "RC_CHANNELS": None}
+#: Exit codes of ``fly`` / ``replay`` by ending.
+EXIT_CODES = {"docked": 0, "timeout": 1, "aborted": 3, "takeover": 4, "interrupted": 130}
 
 
 class FlyAbortError(RuntimeError):
     """The session was aborted for a safety reason (the message says which)."""
 
 
+class FlyTakeoverError(RuntimeError):
+    """Someone else took the vehicle: a disarm or a mode change fly did not command, or pilot
+    input from another ground station.  fly stops commanding at once and releases the channels."""
+
+
 @dataclass
 class FlyResult:
     """How a session ended."""
 
-    reason: str  # "docked", "timeout", "aborted", "interrupted"
+    reason: str  # "docked", "timeout", "aborted", "takeover", "interrupted"
     message: str
     outcome: dict[str, Any] = field(default_factory=dict)
     results_path: Path | None = None
@@ -85,7 +124,7 @@ class FlyResult:
 
     @property
     def exit_code(self) -> int:
-        return {"docked": 0, "timeout": 1, "interrupted": 130}.get(self.reason, 3)
+        return EXIT_CODES.get(self.reason, EXIT_CODES["aborted"])
 
 
 @dataclass
@@ -189,7 +228,23 @@ class FlySession:
         self._last_target: int | None = None
         self._t_end = 0.0
         self._progress: Any = None
+        self._on_event: Any = None
         self._sigint = _SigintLatch()
+        self._params: dict[str, float] = {}
+        self._refusals: list[str] = []
+        self._acks: list[tuple[int, int]] = []  # (command, MAV_RESULT) from the vehicle, in order
+        self._foreign: list[str] = []  # another station's pilot input, described
+        self._sent: collections.deque[tuple[int, tuple[int, ...]]] = collections.deque()
+        self._foreign_rc = 0  # RC_CHANNELS in a row that fly did not send
+        self._last_arm_text = ""  # the vehicle's latest "Arm:" / "PreArm:" STATUSTEXT
+        self._text_chunks: dict[int, list[str]] = {}
+        self._battery: float | None = None  # low-passed voltage, V
+        self._battery_stamp: int | None = None
+        self._t_armed: float | None = None
+        self._next_rates = 0.0
+        self._rate_refreshes = 0
+        self.hold = DepthAttitudeHold(self.vehicle, mission.fly.hold_bandwidth_rad_s)
+        self._stderr = StderrCapture(on_new=lambda line: self._event(f"solver says: {line}"))
         self.link.on_event = self._event
 
     def _build(self, mission: Mission, controller: str | None) -> None:
@@ -223,14 +278,16 @@ class FlySession:
         self.autopilot = build_autopilot(mission, self.vehicle, self.dock, controller)
 
     # ------------------------------------------------------------------------------------
-    def run(self, progress=None) -> FlyResult:
+    def run(self, progress=None, on_event=None) -> FlyResult:
         """Fly the session to its end; never raises for the vehicle's or the link's behaviour.
 
-        ``progress(t, distance_m, status_text)`` is called every control step if given.
+        ``progress(t, distance_m, status_text)`` is called every control step if given;
+        ``on_event(t, text)`` with each event as it happens (they are also in the result).
         Ctrl-C (KeyboardInterrupt, SIGINT) ends the session like an abort, with reason
         "interrupted", at any moment (see the module docstring).
         """
         self._progress = progress
+        self._on_event = on_event
         ending: _Ending | None = None
         try:
             ending = self._fly()
@@ -258,15 +315,20 @@ class FlySession:
         """Everything up to the ending; safety aborts and Ctrl-C become the ending's reason."""
         try:
             self._connect()
+            self._read_parameters()
             self._wait_telemetry()
             self._set_frame()
             self._start_camera()
+            self._preflight()
             self._arm()
             self._open_results()
             return self._control_loop()
         except FlyAbortError as e:
             self._event(f"abort: {e}")
-            return _Ending("aborted", str(e))
+            return _Ending("aborted", str(e), t_end=self._t_end)
+        except FlyTakeoverError as e:
+            self._event(f"takeover: {e}")
+            return _Ending("takeover", str(e), t_end=self._t_end)
         except KeyboardInterrupt:
             self._event(_INTERRUPTED[1])
             return _Ending(*_INTERRUPTED)
@@ -280,15 +342,14 @@ class FlySession:
             raise FlyAbortError(str(e)) from None
         # in the tlog only: what replay needs to rebuild this session
         self.link.note(f"auvdock fly {self.autopilot.name} dt={self.dt:g} timeout={self.timeout_s:g}")
-        rate = self.mission.fly.telemetry_rate_hz
-        for name in TELEMETRY_MESSAGES:
+        for name, rate in self._streams().items():
             msg_id = getattr(mavutil.mavlink, f"MAVLINK_MSG_ID_{name}")
             try:
                 result = self.link.request_rate(msg_id, rate)
                 self._event(f"rate {name} {rate:g} Hz: MAV_RESULT {result}")
             except LinkError as e:
                 self._event(f"rate {name}: {e}")
-            self.link.send_neutral()
+            self._send_neutral()
         m = self.mission
         name = self.autopilot.name
         if m.estimation == "filter":
@@ -303,32 +364,175 @@ class FlySession:
                 f"{self.flow.describe()}"
             )
 
+    def _streams(self) -> dict[str, float]:
+        """Every stream requested, name -> rate (Hz)."""
+        rate = self.mission.fly.telemetry_rate_hz
+        out = {name: rate for name in TELEMETRY_MESSAGES}
+        for name, r in CONTROL_STREAMS.items():
+            out[name] = 1.0 / self.dt if r is None else r
+        return out
+
     def _take_telemetry(self, marker: str, value: int = 0) -> int:
         """The messages received since the last call into :attr:`telemetry`; returns now (us,
-        the tlog's clock).  The link marks the moment in the tlog (for replay)."""
+        the tlog's clock).  The link marks the moment in the tlog (for replay).
+
+        Also taken here: the vehicle's STATUSTEXT (shown and recorded: pre-arm checks,
+        failsafes), PARAM_VALUE, COMMAND_ACK, the battery voltage, and signs of another
+        station flying (its pilot input on our link; RC_CHANNELS that are not ours)."""
         now_us, messages = self.link.drain(marker, value)
         self.telemetry.feed(messages)
-        for _, msg in messages:  # the vehicle's own words (pre-arm checks, failsafes), shown and recorded
-            if msg.get_type() == "STATUSTEXT":
-                self._event(f"vehicle: {str(msg.text).strip()}")
+        vehicle = getattr(self.link, "target_system", 1)
+        for stamp, msg in messages:
+            mtype = msg.get_type()
+            if mtype in PILOT_INPUT_TYPES and msg.get_srcSystem() != vehicle:
+                self._foreign.append(f"pilot input from system {msg.get_srcSystem()} ({mtype})")
+            elif mtype == "STATUSTEXT":
+                text = self._statustext(msg)
+                if text is None:
+                    continue
+                self._event(f"vehicle: {text}")
+                if text.startswith(("Arm:", "PreArm:")):
+                    self._last_arm_text = text
+            elif mtype == "PARAM_VALUE":
+                name = msg.param_id.decode() if isinstance(msg.param_id, bytes) else str(msg.param_id)
+                self._params[name.rstrip("\x00")] = float(msg.param_value)
+            elif mtype == "COMMAND_ACK":
+                self._acks.append((int(msg.command), int(msg.result)))
+            elif mtype in ("SYS_STATUS", "BATTERY_STATUS"):
+                self._take_battery(stamp, msg)
+            elif mtype == "RC_CHANNELS":
+                self._check_rc_channels(stamp, msg)
         return now_us
 
-    def _wait_telemetry(self) -> None:
-        """Stream neutral overrides until the telemetry the estimation needs arrives."""
-        clock = self.clock
-        deadline = clock.now() + self.connect_timeout_s
-        while clock.now() < deadline:
-            self.link.send_neutral()
-            now_us = self._take_telemetry("auvd_wait")
-            if not self.telemetry.missing() and self.telemetry.age_s(now_us) < 0.5:
+    def _statustext(self, msg: Any) -> str | None:
+        """The vehicle's text, its chunks joined (ArduPilot sends a text longer than 50 bytes in
+        chunks that share an ``id``, the last one shorter than 50); None until it is whole."""
+        text = msg.text if isinstance(msg.text, str) else msg.text.decode(errors="replace")
+        text_id = int(getattr(msg, "id", 0) or 0)
+        if text_id == 0:
+            return text.strip()
+        parts = self._text_chunks.setdefault(text_id, [])
+        parts.append(text)
+        if len(text.encode()) >= 50 and len(parts) < 8:
+            return None
+        del self._text_chunks[text_id]
+        return "".join(parts).strip()
+
+    def _take_battery(self, stamp: int, msg: Any) -> None:
+        """Low-pass the battery voltage (SYS_STATUS voltage_battery, else BATTERY_STATUS cell sum)."""
+        if msg.get_type() == "SYS_STATUS":
+            if msg.voltage_battery in (0, 65535):
                 return
+            v = msg.voltage_battery / 1000.0
+        else:
+            if self._battery_stamp is not None and "SYS_STATUS" in self.telemetry._latest:
+                return  # SYS_STATUS first
+            cells = [c for c in msg.voltages if c not in (0, 65535)]
+            if not cells:
+                return
+            v = sum(cells) / 1000.0
+        if self._battery is None or self._battery_stamp is None:
+            self._battery = v
+        else:
+            a = min(1.0, max(0.0, (stamp - self._battery_stamp) * 1e-6 / BATTERY_FILTER_S))
+            self._battery += a * (v - self._battery)
+        self._battery_stamp = stamp
+
+    def _check_rc_channels(self, stamp: int, msg: Any) -> None:
+        """Count RC_CHANNELS whose channels 1..6 fly did not send within SENT_WINDOW_US: another
+        station (e.g. a joystick in QGroundControl or Cockpit with our system id) flying too."""
+        if not self._sent or stamp - self._sent[0][0] < SENT_WINDOW_US // 2:
+            return  # too early to tell
+        shown = tuple(int(getattr(msg, f"chan{i}_raw")) for i in range(1, 7))
+        recent = [ch for t, ch in self._sent if t >= stamp - SENT_WINDOW_US]
+        if not recent:
+            recent = [self._sent[-1][1]]
+        if shown in recent:
+            self._foreign_rc = 0
+            return
+        self._foreign_rc += 1
+        if self._foreign_rc >= FOREIGN_CHANNELS_IN_A_ROW:
+            ours = recent[-1]
+            diff = max(range(6), key=lambda i: abs(shown[i] - ours[i]))  # the channel most unlike ours
+            self._foreign.append(
+                f"the vehicle uses channel {diff + 1} = {shown[diff]} us where fly sends {ours[diff]} us "
+                "(RC_CHANNELS): another ground station with our system id is flying"
+            )
+
+    def _send_channels(self, channels: Any) -> None:
+        """RC overrides for channels 1..6, remembered (the RC_CHANNELS check compares with them)."""
+        ch = tuple(int(round(c)) for c in channels)
+        self.link.send_override(ch)
+        now_us = int(self.clock.time() * 1e6)
+        self._sent.append((now_us, ch))
+        while len(self._sent) > 1 and self._sent[1][0] < now_us - 2 * SENT_WINDOW_US:
+            self._sent.popleft()
+
+    def _send_neutral(self) -> None:
+        self._send_channels(NEUTRAL_CHANNELS)
+
+    def _read_parameters(self) -> None:
+        """Ask the vehicle for the parameters fly depends on; record them; keep the problems
+        (:func:`auvdock.fly.conformance.check_parameters`) for the pre-flight check."""
+        fly = self.mission.fly
+        names = parameter_names(fly.parameters) + list(PRESSURE_PARAMETERS)
+        self.link.request_parameters(names)
+        wanted = list(PARAMETER_GROUPS) + [(n,) for n in fly.parameters]
+        clock = self.clock
+        deadline = clock.now() + PARAM_TIMEOUT_S
+        while clock.now() < deadline:
+            self._send_neutral()
+            self._take_telemetry("auvd_param")
+            if all(any(n in self._params for n in g) for g in wanted):
+                break
             clock.sleep(self.dt)
-        missing = self.telemetry.missing() or ["fresh " + " and ".join(
+        self._event(describe(self._params))
+        self._event(self.telemetry.set_pressure_reference(self._params))
+        self._refusals = check_parameters(
+            self._params, sysid=getattr(self.link, "sysid", 255), dt=self.dt, expected=fly.parameters
+        )
+        for problem in self._refusals:
+            self._event(f"parameter check: {problem}")
+
+    def _missing(self) -> list[str]:
+        """What the session still waits for: the estimation's telemetry, a pressure reading (the
+        depth limits act on it) and, with a battery floor, SYS_STATUS."""
+        out = self.telemetry.missing()
+        if self.telemetry.measured_depth() is None:
+            out.append("SCALED_PRESSURE2 or SCALED_PRESSURE or VFR_HUD")
+        if self.mission.fly.min_battery_v > 0 and self._battery is None:
+            out.append("SYS_STATUS (battery)")
+        return out
+
+    def _wait_telemetry(self) -> None:
+        """Stream neutral overrides until the telemetry the session needs arrives, showing what
+        is missing every few seconds (ArduSub's position estimate can take 40 s after boot)."""
+        clock = self.clock
+        limit = self.mission.fly.telemetry_timeout_s
+        t0 = clock.now()
+        deadline = t0 + limit
+        next_note = t0 + PROGRESS_EVERY_S
+        while clock.now() < deadline:
+            self._send_neutral()
+            now_us = self._take_telemetry("auvd_wait")
+            missing = self._missing()
+            if not missing and self.telemetry.age_s(now_us) < 0.5:
+                if clock.now() - t0 >= PROGRESS_EVERY_S:
+                    self._event(f"telemetry complete after {clock.now() - t0:.0f} s")
+                return
+            if clock.now() >= next_note:
+                next_note += PROGRESS_EVERY_S
+                what = ", ".join(missing) if missing else "fresh telemetry"
+                self._event(f"waiting for {what}: {clock.now() - t0:.0f} s of {limit:g} s")
+            clock.sleep(self.dt)
+        missing = self._missing() or ["fresh " + " and ".join(
             "/".join(g) for g in self.telemetry.required)]  # fmt: skip
-        hint = " (does the autopilot have a position source and origin?)" if any(
-            "LOCAL_POSITION_NED" in name for name in missing) else ""  # fmt: skip
+        hint = ""
+        if any("LOCAL_POSITION_NED" in name for name in missing):
+            hint = " (ArduSub's position estimate: does the vehicle have a position source and an origin?)"
         raise FlyAbortError(
-            f"no {', '.join(missing)} from {self.link.port} within {self.connect_timeout_s:g} s{hint}"
+            f"no {', '.join(missing)} from {self.link.port} within {limit:g} s "
+            f"(fly.telemetry_timeout_s){hint}"
         )
 
     def _set_frame(self) -> None:
@@ -348,19 +552,105 @@ class FlySession:
         self.camera.start(self._state())
         self._event(f"camera: {self.camera.description}")
 
+    def _preflight(self) -> None:
+        """Before arming, on measured values: the parameter checks, the pressure sensor's depth
+        inside the geofence and near the mission's start depth, the dock inside the geofence,
+        the battery above its floor.  With --arm any problem refuses to arm (one line, all of
+        them in the events); a dry run reports them and goes on."""
+        fly = self.mission.fly
+        fence = fly.geofence
+        problems = list(self._refusals)
+        measured = self.telemetry.measured_depth()
+        if measured is not None:
+            depth, source = measured
+            outside = geofence_violation(fence, depth, None)
+            if outside is not None:
+                problems.append(f"{outside} ({source})")
+            start = float(self.mission.start_state()[2])
+            if abs(depth - start) > fly.start_depth_tolerance_m:
+                problems.append(
+                    f"depth {depth:.2f} m ({source}), but the mission starts at {start:.2f} m: bring "
+                    f"the vehicle within {fly.start_depth_tolerance_m:g} m of it "
+                    "(fly.start_depth_tolerance_m)"
+                )
+        p_dock = np.asarray(self._model_dock.position(0.0), dtype=float)
+        p0 = np.asarray(self.mission.start_state()[0:3], dtype=float)
+        dock_dist = float(np.hypot(*(p_dock[0:2] - p0[0:2])))
+        if dock_dist > fence.max_distance_m:
+            problems.append(
+                f"the dock is {dock_dist:.2f} m from the start, beyond fly.geofence.max_distance_m "
+                f"{fence.max_distance_m:g} m"
+            )
+        if not fence.min_depth_m <= p_dock[2] <= fence.max_depth_m:
+            problems.append(
+                f"the dock's depth {p_dock[2]:.2f} m is outside fly.geofence "
+                f"[{fence.min_depth_m:g}, {fence.max_depth_m:g}] m"
+            )
+        floor = fly.min_battery_v
+        if floor > 0 and self._battery is not None and self._battery < floor:
+            problems.append(f"battery {self._battery:.2f} V, below the floor {floor:g} V (fly.min_battery_v)")
+        if not problems:
+            self._event("pre-flight checks pass")
+            return
+        for problem in problems:
+            self._event(f"pre-flight: {problem}")
+        if not self.arm_vehicle:
+            self._event(f"dry run: arming would be refused ({len(problems)} problem(s))")
+            return
+        more = "" if len(problems) == 1 else f" (and {len(problems) - 1} more, in the events)"
+        raise FlyAbortError(f"refusing to arm: {problems[0]}{more}")
+
+    def _await(
+        self, marker: str, done: Any, timeout_s: float, resend: Any = None, every_s: float = 1.0
+    ) -> bool:
+        """Stream neutral and take telemetry every dt until ``done()``; ``resend()`` at once and
+        every ``every_s``.  Decided on the drained messages only, so a replay decides the same."""
+        clock = self.clock
+        deadline = clock.now() + timeout_s
+        next_send = clock.now()
+        while clock.now() < deadline:
+            if resend is not None and clock.now() >= next_send:
+                resend()
+                next_send = clock.now() + every_s
+            self._send_neutral()
+            self._take_telemetry(marker)
+            if done():
+                return True
+            clock.sleep(self.dt)
+        return False
+
+    def _vehicle_mode(self) -> tuple[bool, int | None]:
+        """(armed, custom_mode) of the vehicle's latest HEARTBEAT ((False, None) before one)."""
+        hb, _ = self.telemetry.latest("HEARTBEAT")
+        if hb is None:
+            return False, None
+        return bool(hb.base_mode & mavutil.mavlink.MAV_MODE_FLAG_SAFETY_ARMED), int(hb.custom_mode)
+
     def _arm(self) -> None:
-        """--arm: MANUAL mode and arm (checked); otherwise say it is a dry run."""
+        """--arm: MANUAL mode, then arm, retried every ARM_RETRY_S while the vehicle refuses
+        (its pre-arm reasons appear as events) until ``fly.arm_timeout_s``; else a dry run."""
         if not self.arm_vehicle:
             self._event("dry run: not arming, sending neutral overrides only")
+            self._t_armed = self.clock.now()
             return
-        self.link.send_neutral()
-        try:
-            self.link.set_mode("MANUAL")
-            self.link.send_neutral()
-            self._we_armed = True  # from the arm command on, every ending disarms (Ctrl-C before its ack too)
-            self.link.arm()
-        except LinkError as e:
-            raise FlyAbortError(str(e)) from None
+        manual = MODES["MANUAL"]
+        if not self._await("auvd_mode", lambda: self._vehicle_mode()[1] == manual, MODE_TIMEOUT_S,
+                           resend=lambda: self.link.send_mode("MANUAL")):  # fmt: skip
+            raise FlyAbortError(
+                f"vehicle did not change to MANUAL (mode {manual}) within {MODE_TIMEOUT_S:g} s"
+            )
+        self._event("mode MANUAL")
+        self._we_armed = True  # from the arm command on, every ending disarms (Ctrl-C before its ack too)
+        limit = self.mission.fly.arm_timeout_s
+        self._event("arming (waits for the vehicle's pre-arm checks)")
+        if not self._await("auvd_arm", lambda: self._vehicle_mode()[0], limit,
+                           resend=lambda: self.link.send_arm(True), every_s=ARM_RETRY_S):  # fmt: skip
+            arm = mavutil.mavlink.MAV_CMD_COMPONENT_ARM_DISARM
+            results = [r for c, r in self._acks if c == arm]
+            why = self._last_arm_text or (f"MAV_RESULT {results[-1]}" if results else "no COMMAND_ACK")
+            raise FlyAbortError(f"arming refused for {limit:g} s (fly.arm_timeout_s): {why}")
+        self._t_armed = self.clock.now()
+        self._event("armed")
 
     def _open_results(self) -> None:
         m = self.mission
@@ -406,20 +696,21 @@ class FlySession:
     def _step(self, t: float, k: int) -> _Ending | None:
         """Control step ``k`` at mission time ``t``; an ending (docked) or None."""
         self._now_us = self._take_telemetry("auvd_step", k)
+        self._check_takeover()
+        self._check_limits()
+        self._refresh_rates()
         if self._check_telemetry():
             return None
         x = self._state()
-        self._check_geofence(x)
+        self._check_geofence()
         camera_series: dict[str, np.ndarray] = {}
         if self.camera is not None:
             self.camera.record_pose(t, x)
             steer, camera_series = self._camera_step(t)
-            if not steer:  # no dock to steer to: neutral thrust and hold, recorded
-                self.link.send_neutral()
-                self._rec.held(
-                    t, x, channels=NEUTRAL_CHANNELS, telemetry=self._telemetry(), series=camera_series
-                )
+            if not steer:  # no dock to steer to: hold depth and attitude, recorded
+                self._hold(t, x, camera_series)
                 return None
+            self.hold.stop()
         if self.mission.dock.source == "mavlink":
             self._check_landing_target(t, x)
         dist = float(np.linalg.norm(x[POS] - self.dock.position(t)))
@@ -444,14 +735,16 @@ class FlySession:
         v_c = self.flow.velocity(x[POS], t)
         readings = self.telemetry.readings(t, self._now_us)
         f_b = self.telemetry.specific_force
-        with SigintDeferred():  # a whole controller step (CasADi may swallow a KeyboardInterrupt)
+        # a whole controller step (CasADi may swallow a KeyboardInterrupt); what its C code prints
+        # is counted and recorded, not shown per step
+        with SigintDeferred(), self._stderr.capture():
             out = self.autopilot.step(Measurement(t=t, state=x, flow_ned=v_c, readings=readings))
         channels = channels_for_thrust(out.thrust, self.vehicle.allocation)
         telemetry = self._telemetry()
         if self.arm_vehicle:
-            self.link.send_override(channels)
+            self._send_channels(channels)
         else:
-            self.link.send_neutral()
+            self._send_neutral()
         # what the thrusters will really push (ArduSub's channel path; nothing while disarmed)
         sent = channels if self.arm_vehicle else NEUTRAL_CHANNELS
         applied = thrust_from_channels(sent) if telemetry["armed"] else np.zeros(self.vehicle.n_thrusters)
@@ -474,7 +767,76 @@ class FlySession:
         if self._progress is not None:
             self._progress(t, dist, STATUS_NAMES.get(out.status, str(out.status)))
 
+    def _hold(self, t: float, x: np.ndarray, camera_series: dict[str, np.ndarray]) -> None:
+        """No dock to steer to (camera searching or holding): hold depth and attitude
+        (:class:`auvdock.controllers.hold.DepthAttitudeHold`), recorded as a held row."""
+        if not self.hold.active:
+            self.hold.start(x)
+            self._event(
+                f"holding depth {x[2]:.2f} m and heading {np.degrees(x[5]):.1f} deg until the dock is seen"
+            )
+        channels = NEUTRAL_CHANNELS
+        if self.arm_vehicle:
+            channels = channels_for_wrench(self.hold.wrench(x), self.vehicle.allocation)
+            self._send_channels(channels)
+        else:
+            self._send_neutral()
+        telemetry = self._telemetry()
+        thrust = thrust_from_channels(channels) if telemetry["armed"] else np.zeros(self.vehicle.n_thrusters)
+        self._rec.held(t, x, channels=channels, telemetry=telemetry, series=camera_series, thrust=thrust)
+
     # -- safety checks --------------------------------------------------------------------
+    def _check_takeover(self) -> None:
+        """Someone else flies: another station's pilot input, or (once we armed) a disarm or a
+        mode change fly did not command.  Raises FlyTakeoverError."""
+        if self._foreign:
+            raise FlyTakeoverError(self._foreign[0])
+        if not self._we_armed:
+            return
+        armed, mode = self._vehicle_mode()
+        if not armed:
+            why = (
+                f" (the vehicle said: {self.events_text_since_arming()})"
+                if self.events_text_since_arming()
+                else ""
+            )
+            raise FlyTakeoverError(f"the vehicle was disarmed, not by fly{why}")
+        if mode != MODES["MANUAL"]:
+            name = next((k for k, v in MODES.items() if v == mode), f"mode {mode}")
+            raise FlyTakeoverError(f"the vehicle changed to {name}, not by fly")
+
+    def events_text_since_arming(self) -> str:
+        """The vehicle's latest STATUSTEXT since arming ("" if none)."""
+        for _, text in reversed(self.events):
+            if text == "armed":
+                return ""
+            if text.startswith("vehicle: "):
+                return text[len("vehicle: ") :]
+        return ""
+
+    def _check_limits(self) -> None:
+        """The battery floor (low-passed SYS_STATUS voltage) and the time limit since arming."""
+        fly = self.mission.fly
+        if fly.min_battery_v > 0 and self._battery is not None and self._battery < fly.min_battery_v:
+            raise FlyAbortError(
+                f"battery {self._battery:.2f} V, below the floor {fly.min_battery_v:g} V (fly.min_battery_v)"
+            )
+        limit = fly.time_limit_s if fly.time_limit_s is not None else self.timeout_s + 60.0
+        if self._t_armed is not None and self.clock.now() - self._t_armed > limit:
+            raise FlyAbortError(f"time limit: {limit:g} s since arming (fly.time_limit_s)")
+
+    def _refresh_rates(self) -> None:
+        """Re-request the telemetry rates every ``fly.rates_refresh_s`` (not waited for): a ground
+        station (QGroundControl, Cockpit) may have reset them."""
+        now = self.clock.now()
+        if now < self._next_rates:
+            return
+        if self._next_rates > 0:
+            for name, rate in self._streams().items():
+                self.link.send_rate(getattr(mavutil.mavlink, f"MAVLINK_MSG_ID_{name}"), rate)
+            self._rate_refreshes += 1
+        self._next_rates = now + self.mission.fly.rates_refresh_s
+
     def _check_telemetry(self) -> bool:
         """Stale telemetry: neutral (returns True: skip this step); lost: abort."""
         stale = self._stale()
@@ -483,7 +845,7 @@ class FlySession:
             names = [n for n, age in self.telemetry.ages(self._now_us).items() if age > fly.stale_abort_s]
             raise FlyAbortError(f"telemetry lost: no {', '.join(names)} for {stale:.1f} s")
         if stale > fly.stale_neutral_s:
-            self.link.send_neutral()
+            self._send_neutral()
             if not self.events or not self.events[-1][1].startswith("telemetry stale"):
                 self._event(f"telemetry stale ({stale:.2f} s): neutral")
             return True
@@ -499,10 +861,21 @@ class FlySession:
                 f"(last status {STATUS_NAMES.get(status, status)})"
             )
 
-    def _check_geofence(self, x: np.ndarray) -> None:
-        fence = geofence_violation(self.mission.fly.geofence, x, self._frame.p_mission0)
+    def _check_geofence(self) -> None:
+        """The geofence on measured values: the pressure sensor's depth, the vehicle's own
+        position estimate's distance from the start.  A pressure reading older than
+        ``fly.stale_abort_s`` aborts too (the depth limits cannot act without it)."""
+        measured = self.telemetry.measured_depth()
+        if measured is None:
+            raise FlyAbortError("telemetry lost: no pressure reading (the depth limits need it)")
+        depth, source = measured
+        _, stamp = self.telemetry.latest(source)
+        age = (self._now_us - stamp) * 1e-6
+        if age > self.mission.fly.stale_abort_s:
+            raise FlyAbortError(f"telemetry lost: no {source} for {age:.1f} s (the depth limits need it)")
+        fence = geofence_violation(self.mission.fly.geofence, depth, self.telemetry.distance_from_start())
         if fence is not None:
-            raise FlyAbortError(fence)
+            raise FlyAbortError(f"{fence} ({source})" if "depth" in fence else fence)
 
     def _camera_step(self, t: float) -> tuple[bool, dict[str, np.ndarray]]:
         """The camera's fixes into the dock filter: (may steer?, series); aborts when lost."""
@@ -563,7 +936,10 @@ class FlySession:
         return {"age_s": np.array(ages), "armed": armed}
 
     def _event(self, text: str) -> None:
-        self.events.append((self.clock.now() - self._t0, text))
+        item = (self.clock.now() - self._t0, text)
+        self.events.append(item)
+        if self._on_event is not None:
+            self._on_event(*item)
 
     # -- the ending -----------------------------------------------------------------------
     def _finish(self, ending: _Ending | None) -> FlyResult:
@@ -573,7 +949,11 @@ class FlySession:
         written and the results file closed; a SIGINT meanwhile is only noted.
         """
         self._sigint.install()
-        self._shutdown()
+        self._shutdown(takeover=ending is not None and ending.reason == "takeover")
+        if self._stderr.lines:
+            self._event(f"solver output: {self._stderr.summary()}")
+        if self._rate_refreshes:
+            self._event(f"telemetry rates re-requested {self._rate_refreshes} time(s)")
         rec = self._rec
         if ending is None:
             if rec is not None and rec.writer is not None:
@@ -590,22 +970,37 @@ class FlySession:
                 docked=ending.docked,
                 contact=ending.contact,
                 t_end=ending.t_end,
-                extra={"events_json": rec.events_json(self.events), "armed_by_us": self._we_armed},
+                extra={
+                    "events_json": rec.events_json(self.events),
+                    "armed_by_us": self._we_armed,
+                    "solver_stderr_lines": self._stderr.lines,
+                    "vehicle_parameters_json": json.dumps(self._params, sort_keys=True),
+                },
             )
             rec.finish(outcome)
         path = self.out if rec is not None and rec.writer is not None else None
         return FlyResult(ending.reason, ending.message, outcome, path, list(self.events))
 
-    def _shutdown(self) -> None:
-        """Camera stopped, neutral, overrides released, disarmed if we armed, link closed.  Never raises."""
+    def _shutdown(self, takeover: bool = False) -> None:
+        """Camera stopped, neutral, overrides released, disarmed if we armed, link closed.  Never raises.
+
+        After a takeover only the release: the channels go back at once to whoever took the
+        vehicle (a neutral override from us would fight their input), and the vehicle is left
+        armed or disarmed as they left it."""
         if self.camera is not None:
             self.camera.stop()
-        for action in (self.link.send_neutral, self.link.release_overrides):
+        actions = (
+            (self.link.release_overrides,)
+            if takeover
+            else (self.link.send_neutral, self.link.release_overrides)
+        )
+        for action in actions:
             try:
                 action()
             except Exception:  # noqa: BLE001
                 pass
-        if self._we_armed:
+        self._stderr.close()
+        if self._we_armed and not takeover:
             try:
                 self.link.disarm()
             except Exception:  # noqa: BLE001

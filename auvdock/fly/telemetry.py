@@ -44,16 +44,34 @@ from typing import Any
 import numpy as np
 
 from ..geometry import Rz, rotation_zyx, wrap_angle
-from ..hardware.units import ACCEL_LSB_STD_M_S2, GYRO_LSB_STD_RAD_S, MG_M_S2, MRAD_S, depth_from_pressure
+from ..hardware.units import (
+    ACCEL_LSB_STD_M_S2,
+    ATMOSPHERE_HPA,
+    GYRO_LSB_STD_RAD_S,
+    MG_M_S2,
+    MRAD_S,
+    WATER_DENSITY,
+    depth_from_pressure,
+)
 from ..navigation import Reading
 from ..sensors import SensorSettings
 
-__all__ = ["TELEMETRY_MESSAGES", "MissionFrame", "TelemetrySensors", "geofence_violation"]
+__all__ = [
+    "TELEMETRY_MESSAGES",
+    "PRESSURE_PARAMETERS",
+    "MissionFrame",
+    "TelemetrySensors",
+    "geofence_violation",
+]
 
 #: The streams a session requests (MAV_CMD_SET_MESSAGE_INTERVAL) at ``fly.telemetry_rate_hz``.
 TELEMETRY_MESSAGES = ("ATTITUDE", "LOCAL_POSITION_NED", "SCALED_IMU2", "SCALED_PRESSURE2", "SERVO_OUTPUT_RAW")
 _IMU_TYPES = ("SCALED_IMU2", "RAW_IMU")
 _DEPTH_TYPES = ("SCALED_PRESSURE2", "VFR_HUD")
+#: The pressure messages and the ArduSub parameter of each one's surface pressure (Pa).
+_PRESSURE_GROUND = {"SCALED_PRESSURE2": "BARO2_GND_PRESS", "SCALED_PRESSURE": "BARO1_GND_PRESS"}
+#: Parameters read for the depth (not checked): the surface pressures and the water's density.
+PRESSURE_PARAMETERS = ("BARO1_GND_PRESS", "BARO2_GND_PRESS", "BARO_SPEC_GRAV")
 
 
 def _rotation(angles: np.ndarray) -> np.ndarray:
@@ -109,23 +127,16 @@ class MissionFrame:
         )
 
 
-def geofence_violation(fence: Any, x: np.ndarray, p_start: np.ndarray) -> str | None:
-    """Why the state ``x`` is outside ``fly.geofence`` (distance from ``p_start``, depths), or None."""
-    horiz = float(np.linalg.norm(x[0:2] - p_start[0:2]))
-    if horiz > fence.max_distance_m:
-        return f"geofence: {horiz:.2f} m from the start (limit {fence.max_distance_m:g} m)"
-    if x[2] < fence.min_depth_m:
-        return f"geofence: depth {x[2]:.2f} m above the minimum {fence.min_depth_m:g} m"
-    if x[2] > fence.max_depth_m:
-        return f"geofence: depth {x[2]:.2f} m below the maximum {fence.max_depth_m:g} m"
+def geofence_violation(fence: Any, depth_m: float, distance_m: float | None) -> str | None:
+    """Why a measured depth (m, the pressure sensor's) and horizontal distance from the start (m,
+    the vehicle's own position estimate; None: unknown) are outside ``fly.geofence``, or None."""
+    if distance_m is not None and distance_m > fence.max_distance_m:
+        return f"geofence: {distance_m:.2f} m from the start (limit {fence.max_distance_m:g} m)"
+    if depth_m < fence.min_depth_m:
+        return f"geofence: depth {depth_m:.2f} m above the minimum {fence.min_depth_m:g} m"
+    if depth_m > fence.max_depth_m:
+        return f"geofence: depth {depth_m:.2f} m below the maximum {fence.max_depth_m:g} m"
     return None
-
-
-def _depth_of(msg: Any) -> float:
-    """Depth (m, down) from SCALED_PRESSURE2 (absolute pressure) or VFR_HUD (alt, up)."""
-    if msg.get_type() == "VFR_HUD":
-        return -float(msg.alt)
-    return depth_from_pressure(msg.press_abs)
 
 
 class TelemetrySensors:
@@ -149,6 +160,8 @@ class TelemetrySensors:
         self.frame: MissionFrame | None = None
         self._depth0: float | None = None
         self._depth_type: str | None = None
+        self._surface_hpa = {m: ATMOSPHERE_HPA for m in _PRESSURE_GROUND}
+        self._density = WATER_DENSITY
         self.specific_force = np.full(3, np.nan)
         s = sensors
         self._std = {
@@ -195,6 +208,46 @@ class TelemetrySensors:
             self._latest[mtype] = (msg, int(stamp))
             self._new[mtype] = (msg, int(stamp))
 
+    def set_pressure_reference(self, params: dict[str, float]) -> str:
+        """Take ArduSub's depth calibration from its parameters: the surface pressure of each
+        pressure sensor (``BAROn_GND_PRESS``, Pa, measured at boot) and the water's density
+        (1000 ``BARO_SPEC_GRAV``); the standard atmosphere and sea water where not reported.
+        Returns a description for the events."""
+        for mtype, pname in _PRESSURE_GROUND.items():
+            if params.get(pname, 0.0) > 0:
+                self._surface_hpa[mtype] = float(params[pname]) / 100.0
+        if params.get("BARO_SPEC_GRAV", 0.0) > 0:
+            self._density = 1000.0 * float(params["BARO_SPEC_GRAV"])
+        return (
+            f"depth from pressure: surface {self._surface_hpa['SCALED_PRESSURE2']:.2f} hPa "
+            f"(SCALED_PRESSURE2), water {self._density:g} kg/m^3"
+        )
+
+    def _depth_of(self, msg: Any) -> float:
+        """Depth (m, down) of a pressure message (absolute pressure) or VFR_HUD (alt, up)."""
+        mtype = msg.get_type()
+        if mtype == "VFR_HUD":
+            return -float(msg.alt)
+        return depth_from_pressure(msg.press_abs, self._surface_hpa[mtype], self._density)
+
+    def measured_depth(self) -> tuple[float, str] | None:
+        """The vehicle's depth (m) from its pressure sensor (SCALED_PRESSURE2, else SCALED_PRESSURE,
+        else ArduSub's VFR_HUD), and the message it came from; None before any arrives.  The
+        geofence's depth limits act on this, not on the mission frame's depth."""
+        for mtype in ("SCALED_PRESSURE2", "SCALED_PRESSURE", "VFR_HUD"):
+            msg, _ = self.latest(mtype)
+            if msg is not None:
+                return self._depth_of(msg), mtype
+        return None
+
+    def distance_from_start(self) -> float | None:
+        """Horizontal distance (m) of the vehicle's own position estimate (LOCAL_POSITION_NED)
+        from where the frame was set; None before."""
+        pos, _ = self.latest("LOCAL_POSITION_NED")
+        if pos is None or self.frame is None:
+            return None
+        return float(math.hypot(pos.x - self.frame.p_vehicle0[0], pos.y - self.frame.p_vehicle0[1]))
+
     def latest(self, mtype: str) -> tuple[Any, int | None]:
         """The latest message of a type and its stamp (us), or ``(None, None)``."""
         item = self._latest.get(mtype)
@@ -211,7 +264,7 @@ class TelemetrySensors:
         for mtype in _DEPTH_TYPES:
             msg, _ = self.latest(mtype)
             if msg is not None:
-                self._depth_type, self._depth0 = mtype, _depth_of(msg)
+                self._depth_type, self._depth0 = mtype, self._depth_of(msg)
                 break
         self._new.clear()  # readings start after the frame
         return self.frame
@@ -264,7 +317,7 @@ class TelemetrySensors:
             out.append(Reading("accel", at(imu_type), f_b.copy(), std["accel"].copy()))
         depth_msg = new.get(self._depth_type) if self._depth_type is not None else None
         if depth_msg is not None:
-            d = frame.p_mission0[2] + (_depth_of(depth_msg) - self._depth0)
+            d = frame.p_mission0[2] + (self._depth_of(depth_msg) - self._depth0)
             out.append(Reading("depth", at(self._depth_type), np.array([d]), std["depth"].copy()))
         pos = new.get("LOCAL_POSITION_NED")
         if pos is not None and self.sensors.position.source != "none":

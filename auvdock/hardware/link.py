@@ -41,13 +41,29 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 from ..clock import Clock, ClockClosedError, wall_clock
 from .ardusub import MODES, NEUTRAL_CHANNELS
 
-__all__ = ["LinkError", "MavlinkLink", "connection_string"]
+__all__ = ["LinkError", "MavlinkLink", "connection_string", "for_session", "PILOT_INPUT_TYPES"]
 
 mavlink = mavutil.mavlink
 UINT16_MAX = 65535
 GCS_COMPONENT = mavlink.MAV_COMP_ID_MISSIONPLANNER  # 190
 #: Most received messages kept for :meth:`MavlinkLink.drain` (a session drains every step).
 INBOX_MAX = 100_000
+
+
+#: Pilot input a ground station sends; seen from another system, it means someone else is flying.
+PILOT_INPUT_TYPES = ("MANUAL_CONTROL", "RC_CHANNELS_OVERRIDE")
+
+
+def for_session(msg: Any, vehicle_system: int, own_system: int) -> bool:
+    """Whether a received message goes to the session (:meth:`MavlinkLink.drain`): the
+    vehicle's own messages, LANDING_TARGET from anyone (a positioning system on the link),
+    and pilot input (MANUAL_CONTROL, RC_CHANNELS_OVERRIDE) from any system but ours (another
+    ground station taking over).  One rule for the link and for a replay of its tlog."""
+    mtype = msg.get_type()
+    src = msg.get_srcSystem()
+    if src == vehicle_system or mtype == "LANDING_TARGET":
+        return True
+    return mtype in PILOT_INPUT_TYPES and src != own_system
 
 
 class LinkError(RuntimeError):
@@ -292,11 +308,11 @@ class MavlinkLink:
             mtype = msg.get_type()
             if mtype == "BAD_DATA":
                 continue
-            # the vehicle's messages; LANDING_TARGET may come from any external system
-            ours = msg.get_srcSystem() == self.target_system or mtype == "LANDING_TARGET"
+            # the vehicle's messages, LANDING_TARGET from anyone, other stations' pilot input
+            ours = for_session(msg, self.target_system, self.sysid)
             self._record(msg.get_msgbuf(), inbox=msg if ours else None)
-            if not ours:
-                continue
+            if msg.get_srcSystem() != self.target_system and mtype != "LANDING_TARGET":
+                continue  # not the vehicle's state (another station's input is the session's)
             now = self.clock.now()
             with self._lock:
                 self._latest[mtype] = (msg, now)
@@ -347,6 +363,36 @@ class MavlinkLink:
                         return result
             clock.sleep(0.01)
         raise LinkError(f"no COMMAND_ACK for command {command} from {self.port} within {timeout_s:g} s")
+
+    def send_command(self, command: int, *params: float) -> None:
+        """Send COMMAND_LONG without waiting: its COMMAND_ACK comes with the vehicle's messages
+        (:meth:`drain`), where a session that must stay replayable looks for it."""
+        p = list(params) + [0.0] * (7 - len(params))
+        self.conn.mav.command_long_send(self.target_system, self.target_component, command, 0, *p)
+
+    def send_arm(self, arm: bool) -> None:
+        """MAV_CMD_COMPONENT_ARM_DISARM (param1 1 arms, 0 disarms), not waited for."""
+        self.send_command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1.0 if arm else 0.0)
+
+    def send_mode(self, name: str) -> None:
+        """SET_MODE to an ArduSub mode by name (e.g. ``"MANUAL"``), not waited for."""
+        self.conn.mav.set_mode_send(
+            self.target_system, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, MODES[name]
+        )
+
+    def send_rate(self, message_id: int, rate_hz: float) -> None:
+        """MAV_CMD_SET_MESSAGE_INTERVAL for one message, not waited for (a periodic re-request:
+        a ground station such as QGroundControl or Cockpit may have reset the rates)."""
+        interval_us = -1 if rate_hz <= 0 else 1e6 / rate_hz
+        self.send_command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, message_id, interval_us, 0)
+
+    def request_parameters(self, names: Any) -> None:
+        """PARAM_REQUEST_READ for each name; the PARAM_VALUE answers come with the vehicle's
+        messages (ArduPilot answers nothing for a name it does not have)."""
+        for name in names:
+            self.conn.mav.param_request_read_send(
+                self.target_system, self.target_component, name.encode(), -1
+            )
 
     def _wait(self, predicate: Callable[[], bool], timeout_s: float) -> bool:
         deadline = self.clock.now() + timeout_s

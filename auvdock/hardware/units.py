@@ -55,6 +55,10 @@ def pressure_hpa(depth_m: float) -> float:
     return ATMOSPHERE_HPA + WATER_DENSITY * GRAVITY * depth_m / 100.0
 
 
-def depth_from_pressure(press_abs_hpa: float) -> float:
-    """Depth (m, down) of an absolute pressure (hPa) under the standard atmosphere."""
-    return (float(press_abs_hpa) - ATMOSPHERE_HPA) * 100.0 / (WATER_DENSITY * GRAVITY)
+def depth_from_pressure(
+    press_abs_hpa: float, surface_hpa: float = ATMOSPHERE_HPA, density_kg_m3: float = WATER_DENSITY
+) -> float:
+    """Depth (m, down) of an absolute pressure (hPa): ``(p - p_surface) 100 / (rho g)``; by
+    default under the standard atmosphere in sea water (ArduSub: the surface pressure is
+    ``BAROn_GND_PRESS``, Pa, and rho = 1000 ``BARO_SPEC_GRAV``)."""
+    return (float(press_abs_hpa) - float(surface_hpa)) * 100.0 / (float(density_kg_m3) * GRAVITY)

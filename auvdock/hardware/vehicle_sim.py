@@ -97,7 +97,14 @@ Messages handled
     under 1000 us become 1 ms) -> ``MAV_RESULT_ACCEPTED``; a message id not in :data:`STREAMS`
     or another negative interval -> ``MAV_RESULT_DENIED``.  Messages go out at most once per
     physics step, so the fastest rate is ``rate_hz``.
+    ``HEARTBEAT`` (1 Hz by default), ``SYS_STATUS`` (battery voltage, the pre-arm check bit
+    of the sensors' health) and ``RC_CHANNELS`` (the channels in use) can be requested too.
+  - arming while a pre-arm check fails (:meth:`VehicleSim.set_prearm_failure`) ->
+    ``MAV_RESULT_FAILED`` and STATUSTEXT "Arm: REASON", as ArduPilot reports it.
   - any other command -> ``MAV_RESULT_UNSUPPORTED``.
+* ``PARAM_REQUEST_READ`` (by name, or by index in name order) and ``PARAM_REQUEST_LIST``
+  (target_system 1 or 0) -> ``PARAM_VALUE`` (REAL32) of :func:`default_parameters` as changed
+  by ``params``; like ArduPilot, nothing for a name the vehicle does not have.
 * ``SET_MODE`` (target_system 1 or 0): as ``MAV_CMD_DO_SET_MODE`` with base_mode and
   custom_mode; acknowledged, like ArduPilot, by a ``COMMAND_ACK`` whose command is 11 (the
   message id of SET_MODE).
@@ -187,6 +194,7 @@ __all__ = [
     "channels_from_override",
     "channels_from_manual_control",
     "pressure_hpa",
+    "default_parameters",
 ]
 
 M = mavlink2
@@ -210,7 +218,40 @@ STREAMS: dict[str, int] = {
     "SERVO_OUTPUT_RAW": M.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW,
     "VFR_HUD": M.MAVLINK_MSG_ID_VFR_HUD,
 }
+#: Telemetry whose rate a GCS may set too, besides :data:`STREAMS`: the HEARTBEAT (1 Hz by
+#: default, like ArduPilot's deferred HEARTBEAT), SYS_STATUS (battery, pre-arm health) and
+#: RC_CHANNELS (the channels the vehicle is using, overrides included).
+STREAMS.update(
+    {
+        "HEARTBEAT": M.MAVLINK_MSG_ID_HEARTBEAT,
+        "SYS_STATUS": M.MAVLINK_MSG_ID_SYS_STATUS,
+        "RC_CHANNELS": M.MAVLINK_MSG_ID_RC_CHANNELS,
+    }
+)
 _STREAM_NAMES = {v: k for k, v in STREAMS.items()}
+#: SYS_STATUS's sensor bit for "pre-arm checks pass" (MAV_SYS_STATUS_PREARM_CHECK).
+PREARM_CHECK_BIT = M.MAV_SYS_STATUS_PREARM_CHECK
+
+
+def default_parameters(gcs_sysid: int = 255) -> dict[str, float]:
+    """The parameters a BlueROV2 Heavy's ArduSub reports, as far as ``fly`` checks them
+    (:mod:`auvdock.fly.conformance`): ArduSub's defaults with FRAME_CONFIG 2 (Vectored_6DOF),
+    motors 1..8 on outputs 1..8 (SERVOn_FUNCTION 33..40), every MOT_n_DIRECTION 1."""
+    params: dict[str, float] = {
+        "SYSID_MYGCS": float(gcs_sysid),
+        "FRAME_CONFIG": 2.0,
+        "RC_OVERRIDE_TIME": OVERRIDE_TIMEOUT_S,
+        "FS_PILOT_INPUT": 2.0,
+        "FS_PILOT_TIMEOUT": PILOT_INPUT_TIMEOUT_S,
+        "FS_GCS_ENABLE": 2.0,
+        "FS_GCS_TIMEOUT": 5.0,
+    }
+    for n in range(1, 9):
+        params[f"MOT_{n}_DIRECTION"] = 1.0
+        params[f"SERVO{n}_FUNCTION"] = float(32 + n)
+    return params
+
+
 _MODE_NAMES = {v: k for k, v in MODES.items()}
 _INT16_MAX = 32767
 
@@ -291,6 +332,13 @@ class VehicleSim:
         Pilot gain applied to MANUAL_CONTROL axes (ArduSub default 0.5).
     refuse_arm : bool
         Answer arming commands with MAV_RESULT_FAILED (for tests).
+    params : dict, optional
+        Parameter values that replace or add to :func:`default_parameters` (answered to
+        PARAM_REQUEST_READ / PARAM_REQUEST_LIST; a name set to None is removed, as if the
+        firmware had no such parameter).  ``SYSID_MYGCS`` / ``MAV_GCS_SYSID`` here set
+        ``gcs_sysid``; ``RC_OVERRIDE_TIME`` the override lapse.
+    battery_v : float
+        Battery voltage reported in SYS_STATUS, V (:meth:`set_battery` changes it).
     noise : bool
         Add Gaussian sensor noise to the telemetry (levels from ``mission.sensors``).
     seed : int, optional
@@ -299,6 +347,10 @@ class VehicleSim:
         RK4 substeps per physics step (default ``mission.simulation.substeps``).
     surface : bool
         Floor the depth at 0 m (a crude free surface; the truth model has none).
+    hold_start : bool
+        Hold the vehicle at the mission's start state, at rest, while it is disarmed (as a
+        pilot would dive it there before each flight; ``vehicle-sim`` does by default), else
+        it is free from the start (a buoyant vehicle floats up while disarmed).
     received_maxlen : int
         Most entries kept in :attr:`received` (oldest dropped first).
     clock : Clock, optional
@@ -316,10 +368,13 @@ class VehicleSim:
         gcs_sysid: int = 255,
         joystick_gain: float = 0.5,
         refuse_arm: bool = False,
+        params: dict[str, float | None] | None = None,
+        battery_v: float = 16.0,
         noise: bool = False,
         seed: int | None = None,
         substeps: int | None = None,
         surface: bool = True,
+        hold_start: bool = False,
         received_maxlen: int = 100_000,
         clock: Clock | None = None,
     ) -> None:
@@ -335,8 +390,22 @@ class VehicleSim:
         self.gcs_sysid = int(gcs_sysid)
         self.joystick_gain = float(joystick_gain)
         self.refuse_arm = bool(refuse_arm)
+        self._params = default_parameters(self.gcs_sysid)
+        for name, value in (params or {}).items():
+            if value is None:
+                self._params.pop(name, None)
+            else:
+                self._params[name] = float(value)
+        for name in ("SYSID_MYGCS", "MAV_GCS_SYSID"):
+            if name in (params or {}) and params[name] is not None:
+                self.gcs_sysid = int(params[name])
+        self._override_timeout_s = float(self._params.get("RC_OVERRIDE_TIME", OVERRIDE_TIMEOUT_S))
+        self._battery_v = float(battery_v)
+        self._prearm_failure: str | None = None
+        self._text_id = 0
         self.noise = bool(noise)
         self.surface = bool(surface)
+        self.hold_start = bool(hold_start)
         self.clock: Clock = wall_clock if clock is None else clock
 
         n_sub = mission.simulation.substeps if substeps is None else int(substeps)
@@ -376,6 +445,7 @@ class VehicleSim:
         self._intervals: dict[int, float] = {}
         self._next_due: dict[int, float] = {}
         self._next_heartbeat = 0.0
+        self._heartbeat_period = HEARTBEAT_PERIOD_S
         self._paused = False
         self._received: deque[tuple[float, str, int, dict[str, Any]]] = deque(maxlen=received_maxlen)
         self._events: list[SimEvent] = []
@@ -470,6 +540,23 @@ class VehicleSim:
         """Whether the simulator thread is running."""
         return self._thread is not None and self._thread.is_alive()
 
+    @property
+    def parameters(self) -> dict[str, float]:
+        """The parameters the vehicle reports (name -> value)."""
+        with self._lock:
+            return dict(self._params)
+
+    def set_battery(self, volts: float) -> None:
+        """The battery voltage SYS_STATUS reports from now on, V."""
+        with self._lock:
+            self._battery_v = float(volts)
+
+    def set_prearm_failure(self, reason: str | None) -> None:
+        """A failing pre-arm check (None: all pass): arming is refused with MAV_RESULT_FAILED and
+        STATUSTEXT "Arm: REASON", and SYS_STATUS shows the pre-arm check unhealthy."""
+        with self._lock:
+            self._prearm_failure = reason
+
     def pause_telemetry(self, paused: bool = True) -> None:
         """Stop (True) or resume (False) every outgoing message, HEARTBEAT included."""
         with self._lock:
@@ -539,7 +626,10 @@ class VehicleSim:
 
     def _channels_now(self) -> np.ndarray:
         t = self._k * self.dt
-        if t - self._last_override_t < OVERRIDE_TIMEOUT_S:
+        lapse = self._override_timeout_s
+        if self._params.get("RC_OVERRIDE_TIME", 1.0) == 0.0:  # overrides disabled
+            return NEUTRAL_CHANNELS.astype(float)
+        if lapse < 0 or t - self._last_override_t < lapse:
             return self._override
         return NEUTRAL_CHANNELS.astype(float)
 
@@ -649,6 +739,11 @@ class VehicleSim:
         t = self._k * self.dt
         self._check_failsafe(t)
         self._update_thrust()
+        if self.hold_start and not self._armed:  # held at the start, at rest, while disarmed
+            self._x = self.mission.start_state().astype(float)
+            self._nu1_dot = np.zeros(3)
+            self._k += 1
+            return
         x_new = np.asarray(self._step_fn(self._x, self._thrust, t)).ravel()
         if not np.all(np.isfinite(x_new)):  # cannot happen with sane parameters; keep the vehicle
             x_new = self._x.copy()
@@ -693,6 +788,8 @@ class VehicleSim:
             "SET_MODE": self._on_set_mode,
             "RC_CHANNELS_OVERRIDE": self._on_rc_override,
             "MANUAL_CONTROL": self._on_manual_control,
+            "PARAM_REQUEST_READ": self._on_param_request_read,
+            "PARAM_REQUEST_LIST": self._on_param_request_list,
         }.get(mtype)
         if handler is not None:
             try:
@@ -716,6 +813,37 @@ class VehicleSim:
         else:
             result = M.MAV_RESULT_UNSUPPORTED
         self._ack(cmd, result, msg)
+
+    def _on_param_request_read(self, msg: Any) -> None:
+        if msg.target_system not in (0, SYSTEM_ID):
+            return
+        names = sorted(self._params)
+        index = int(msg.param_index)
+        if index >= 0:
+            if index < len(names):
+                self._send_param(names[index])
+            return
+        name = msg.param_id.decode() if isinstance(msg.param_id, bytes) else str(msg.param_id)
+        name = name.rstrip("\x00")
+        if name in self._params:  # like ArduPilot: no answer for an unknown name
+            self._send_param(name)
+
+    def _on_param_request_list(self, msg: Any) -> None:
+        if msg.target_system not in (0, SYSTEM_ID):
+            return
+        for name in sorted(self._params):
+            self._send_param(name)
+
+    def _send_param(self, name: str) -> None:
+        names = sorted(self._params)
+        self._send(
+            self._conn.mav.param_value_send,
+            name.encode(),
+            float(self._params[name]),
+            M.MAV_PARAM_TYPE_REAL32,
+            len(names),
+            names.index(name),
+        )
 
     def _on_set_mode(self, msg: Any) -> None:
         if msg.target_system not in (0, SYSTEM_ID):
@@ -751,6 +879,9 @@ class VehicleSim:
     def _cmd_arm(self, param1: float) -> int:
         if param1 == 1.0:
             if self.refuse_arm:
+                return M.MAV_RESULT_FAILED
+            if self._prearm_failure is not None and not self._armed:
+                self._statustext(M.MAV_SEVERITY_CRITICAL, f"Arm: {self._prearm_failure}")
                 return M.MAV_RESULT_FAILED
             self._set_armed(True, "gcs command")
             return M.MAV_RESULT_ACCEPTED
@@ -792,6 +923,10 @@ class VehicleSim:
             return M.MAV_RESULT_DENIED
         if interval_us == 0:
             interval_us = DEFAULT_INTERVAL_US
+        if msg_id == M.MAVLINK_MSG_ID_HEARTBEAT:  # ArduPilot's deferred HEARTBEAT: its period
+            self._heartbeat_period = max(interval_us, 1000) / 1e6
+            self._next_heartbeat = self._k * self.dt
+            return M.MAV_RESULT_ACCEPTED
         self._intervals[msg_id] = max(interval_us, 1000) / 1e6
         self._next_due[msg_id] = self._k * self.dt
         return M.MAV_RESULT_ACCEPTED
@@ -819,16 +954,24 @@ class VehicleSim:
         )
 
     def _statustext(self, severity: int, text: str) -> None:
-        self._send(self._conn.mav.statustext_send, severity, text.encode()[:50])
+        """STATUSTEXT as ArduPilot sends a long one: 50-byte chunks sharing an id, numbered by
+        chunk_seq (a text of at most 50 bytes goes whole, with id 0)."""
+        data = text.encode()
+        if len(data) <= 50:
+            self._send(self._conn.mav.statustext_send, severity, data, 0, 0)
+            return
+        self._text_id = self._text_id % 65535 + 1
+        for seq, i in enumerate(range(0, len(data), 50)):
+            self._send(self._conn.mav.statustext_send, severity, data[i : i + 50], self._text_id, seq)
 
     def _send_telemetry(self) -> None:
         t = self._k * self.dt
         eps = 1e-9
         if t + eps >= self._next_heartbeat:
             self._send_heartbeat()
-            self._next_heartbeat += HEARTBEAT_PERIOD_S
+            self._next_heartbeat += self._heartbeat_period
             if self._next_heartbeat <= t:
-                self._next_heartbeat = t + HEARTBEAT_PERIOD_S
+                self._next_heartbeat = t + self._heartbeat_period
         if self._target_dock is not None and t + eps >= self._next_target:
             self._send_landing_target(t)
             self._next_target = max(self._next_target + self._target_period, t)
@@ -905,6 +1048,30 @@ class VehicleSim:
             self._mode,
             status,
         )
+
+    def _send_sys_status(self) -> None:
+        sensors = PREARM_CHECK_BIT
+        health = 0 if self._prearm_failure is not None else PREARM_CHECK_BIT
+        self._send(
+            self._conn.mav.sys_status_send,
+            sensors,
+            sensors,
+            health,
+            0,
+            int(round(self._battery_v * 1000.0)),
+            -1,
+            -1,
+            0,
+            0,
+            0,
+            0,
+            0,
+            0,
+        )
+
+    def _send_rc_channels(self) -> None:
+        ch = [int(round(v)) for v in self._channels_now()] + [int(PWM_NEUTRAL_US)] * 12
+        self._send(self._conn.mav.rc_channels_send, self._time_boot_ms(), 18, *ch, 255)
 
     def _send_attitude(self) -> None:
         x = self._x
