@@ -5,12 +5,15 @@ thrust is not a hold: the BlueROV2 Heavy is about 2 N buoyant and rises (0.84 to
 3 s, measured against ArduSub SITL), and a current carries it off.  The hold computes the
 body wrench (Fossen 2021, ch. 12, PD control with restoring-force compensation)
 
-    tau = g(eta) + [ R^T f_n ; m_b ]
+    tau = [ g_1..3(eta) + R^T f_n ; m_b ]
     f_n = -M_11 2 zeta w v_xy  (horizontal, NED)  and  -M_33 (w^2 (z - z_h) + 2 zeta w z_dot)  (down)
     m_b = -diag(M_44, M_55, M_66) (w^2 e_Theta + 2 zeta w nu_2),  e_Theta = [phi, theta, psi - psi_h]
 
-with g(eta) the one model's restoring forces (:meth:`auvdock.vehicle.model.VehicleModel.restoring`,
-so buoyancy and the righting moments are cancelled, not fought by the loop), ``w`` the loop's
+with g_1..3(eta) the force part of the one model's restoring forces
+(:meth:`auvdock.vehicle.model.VehicleModel.restoring`): the net buoyancy is cancelled, not fought
+by the depth loop.  The righting moments are kept: the metacentric moment (about 2.3 N m/rad
+for the Heavy) holds roll and pitch better than a loop of this bandwidth would (0.29 N m/rad at
+1 rad/s), and cancelling it would only weaken the hold.  ``w`` is the loop's
 natural frequency (``fly.hold_bandwidth_rad_s``) and ``zeta = 1`` (critically damped): depth
 and heading are held where the hold began, roll and pitch at zero, the horizontal motion
 over ground damped.  The wrench goes to the thrusters through
@@ -81,4 +84,4 @@ class DepthAttitudeHold:
         e_att = np.array([float(x[3]), float(x[4]), wrap_angle(float(x[5]) - psi_h)])
         m_b = -M[3:6] * (w * w * e_att + 2 * zeta * w * np.asarray(x[9:12], dtype=float))
         g = np.asarray(self._g(np.asarray(x[0:6], dtype=float))).ravel()
-        return g + np.concatenate([R.T @ f_n, m_b])
+        return np.concatenate([g[0:3] + R.T @ f_n, m_b])

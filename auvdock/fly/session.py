@@ -2,32 +2,51 @@
 
 The session in named steps (:meth:`FlySession.run`)::
 
-    _connect          wait for the ArduSub HEARTBEAT, request the telemetry rates
-    _wait_telemetry   wait for the telemetry the estimation needs (TelemetrySensors.required)
+    _connect          wait for the ArduSub HEARTBEAT, request the telemetry rates (the estimation's
+                      streams; HEARTBEAT at the control rate, SYS_STATUS, RC_CHANNELS)
+    _read_parameters  PARAM_REQUEST_READ for what fly depends on; conformance.check_parameters
+    _wait_telemetry   wait for the telemetry the estimation needs, a pressure reading and the
+                      battery (progress every 5 s names what is missing; fly.telemetry_timeout_s)
     _set_frame        map the vehicle's pose onto the mission's start
     _start_camera     (dock.source: camera) the frame source and the detection thread
-    _arm              --arm: MANUAL mode, arm; else a dry run
+    _preflight        on measured values: parameters, pressure depth vs geofence and start depth,
+                      the dock inside the fence, the battery; --arm refuses on any problem
+    _arm              --arm: MANUAL mode, arm retried while pre-arm checks fail
+                      (fly.arm_timeout_s); else a dry run
     _open_results     the results file
     _control_loop     every dt, on the session's clock: _step
-        _step             _take_telemetry -> _check_telemetry -> state -> _check_geofence -> camera
+        _step             _take_telemetry -> _check_takeover -> _check_limits -> _refresh_rates
+                          -> _check_telemetry -> state -> _check_geofence -> camera (lost: _hold)
                           -> _check_landing_target -> docked? -> _control (the controller-and-
                           estimator step on the sensor readings, RC override, one row)
-    _finish           the one ending: neutral, release, disarm if we armed, link closed, outcome written
+    _finish           the one ending: neutral, release, disarm if we armed, link closed, outcome
+                      written (a takeover: release only)
 
 What the controller knows comes through :class:`auvdock.fly.telemetry.TelemetrySensors`:
 the vehicle's messages received since the last step are taken from the link at once
 (:meth:`MavlinkLink.drain`, which marks the moment in the tlog), so that ``auvdock replay``
 can hand the same session code the same messages at the same steps and reproduce its
-outputs.  With ``estimation: filter`` the navigation filter reads the sensor readings (IMU,
-attitude, depth, the position source); with ``truth`` the controller takes the autopilot's
-own estimate (ATTITUDE, LOCAL_POSITION_NED) as the state.  Oracle and Kinematic MPC read the
-mission's flow model as their forecast of the current (their definition; the events say so);
-no other controller ever sees it.
+outputs.  Every decision (parameters read, mode reached, armed, takeover) is made on those
+drained messages, never on the link's own state, for the same reason.  With ``estimation:
+filter`` the navigation filter reads the sensor readings (IMU, attitude, depth, the position
+source); with ``truth`` the controller takes the autopilot's own estimate (ATTITUDE,
+LOCAL_POSITION_NED) as the state.  Oracle and Kinematic MPC read the mission's flow model as
+their forecast of the current (their definition; the events say so); no other controller
+ever sees it.
 
 Safety (each ends the session the same way, :meth:`FlySession._finish`): nothing is armed
-without ``arm=True``; telemetry older than ``fly.stale_neutral_s``: neutral at once, older
-than ``fly.stale_abort_s``: abort; leaving ``fly.geofence`` aborts; overrides stream at the
-control rate all session (ArduSub disarms after 3 s without pilot input).
+without ``arm=True``, and nothing while a parameter or pre-flight check fails; telemetry
+older than ``fly.stale_neutral_s``: neutral at once, older than ``fly.stale_abort_s``: abort;
+the geofence acts on the pressure sensor's depth and the vehicle's own position estimate;
+a battery below ``fly.min_battery_v`` (low-passed) or ``fly.time_limit_s`` after arming
+aborts; overrides stream at the control rate all session (ArduSub disarms after 3 s without
+pilot input).  Someone else taking the vehicle (a disarm or a mode change fly did not
+command, another station's MANUAL_CONTROL / RC_CHANNELS_OVERRIDE on our link, RC_CHANNELS
+showing channels fly did not send) ends the session as a takeover (exit code 4): the
+channels are released at once and the vehicle is left to them.  While the camera has lost
+the dock the vehicle holds depth and attitude (:class:`auvdock.controllers.hold.DepthAttitudeHold`).
+What CasADi's C code prints during the controller steps is counted and recorded
+(:class:`auvdock.stderr_capture.StderrCapture`), not shown per step.
 
 Ctrl-C (SIGINT) at any moment ends the session with reason "interrupted" (exit code 130):
 results rows and the results file's creation are written whole (SIGINT held back over them),
