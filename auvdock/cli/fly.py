@@ -53,7 +53,12 @@ def fly(
         "sensors; needed by the FSE controllers) or truth (the autopilot's estimate as the state).",
     ),
 ) -> None:
-    """Dock a real BlueROV2 (ArduSub) over MAVLink with the mission's controller."""
+    """Dock a real BlueROV2 (ArduSub) over MAVLink with the mission's controller.
+
+    Checks the vehicle's parameters and the measured limits before arming; stops at once when
+    someone else takes the vehicle.  Exit status: 0 docked, 1 not docked in time, 2 bad input,
+    3 aborted (a check, a limit, lost telemetry, arming refused), 4 takeover, 130 Ctrl-C.
+    """
     from ..fly import FlySession
     from ..hardware.link import MavlinkLink, connection_string
 
