@@ -139,6 +139,7 @@ def test_attrs_round_trip(tmp_path: Path) -> None:
         3: "fallback_zero",
         4: "no_step",
         5: "settling",
+        6: "hold",
     }
 
     out = r.outcome()
