@@ -102,6 +102,9 @@ N_THRUSTERS = 8
 #: How long the parameters may take to arrive (ArduPilot answers each PARAM_REQUEST_READ within
 #: a few ms, and nothing for a name it does not have), s.
 PARAM_TIMEOUT_S = 3.0
+#: Parameters requested per batch, and how often a batch goes (ArduPilot's request queue is short).
+PARAM_BATCH = 6
+PARAM_BATCH_PERIOD_S = 0.2
 #: Arming is retried this often while the vehicle refuses (pre-arm checks settling), s.
 ARM_RETRY_S = 2.0
 #: A mode change is waited for this long, s.
@@ -495,14 +498,20 @@ class FlySession:
         (:func:`auvdock.fly.conformance.check_parameters`) for the pre-flight check."""
         fly = self.mission.fly
         names = parameter_names(fly.parameters) + list(PRESSURE_PARAMETERS)
-        self.link.request_parameters(names)
         wanted = list(PARAMETER_GROUPS) + [(n,) for n in fly.parameters]
         clock = self.clock
         deadline = clock.now() + PARAM_TIMEOUT_S
+        next_ask = clock.now()
         while clock.now() < deadline:
+            if clock.now() >= next_ask:  # a few at a time: ArduPilot queues only a few requests
+                missing = [n for n in names if n not in self._params]
+                self.link.request_parameters(missing[:PARAM_BATCH])
+                next_ask = clock.now() + PARAM_BATCH_PERIOD_S
             self._send_neutral()
             self._take_telemetry("auvd_param")
-            if all(any(n in self._params for n in g) for g in wanted):
+            if all(any(n in self._params for n in g) for g in wanted) and (
+                all(n in self._params for n in PRESSURE_PARAMETERS) or clock.now() >= deadline - 1.0
+            ):
                 break
             clock.sleep(self.dt)
         self._event(describe(self._params))

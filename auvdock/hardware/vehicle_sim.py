@@ -182,7 +182,7 @@ from ..mission import Mission, load_mission
 from ..vehicle.state import ANG, ATT, LIN, POS
 from ..vehicle.thrusters import PWM_MAX_US, PWM_MIN_US, PWM_NEUTRAL_US
 from .ardusub import MODES, NEUTRAL_CHANNELS, PWM_PER_UNIT, mix, motor_pwm, thrust_from_channels
-from .units import GRAVITY, MG_M_S2, MRAD_S, pressure_hpa
+from .units import ATMOSPHERE_HPA, GRAVITY, MG_M_S2, MRAD_S, WATER_DENSITY, pressure_hpa
 
 __all__ = [
     "VehicleSim",
@@ -245,6 +245,10 @@ def default_parameters(gcs_sysid: int = 255) -> dict[str, float]:
         "FS_PILOT_TIMEOUT": PILOT_INPUT_TIMEOUT_S,
         "FS_GCS_ENABLE": 2.0,
         "FS_GCS_TIMEOUT": 5.0,
+        # the depth calibration its SCALED_PRESSURE2 follows: standard atmosphere, sea water
+        "BARO1_GND_PRESS": ATMOSPHERE_HPA * 100.0,
+        "BARO2_GND_PRESS": ATMOSPHERE_HPA * 100.0,
+        "BARO_SPEC_GRAV": WATER_DENSITY / 1000.0,
     }
     for n in range(1, 9):
         params[f"MOT_{n}_DIRECTION"] = 1.0
