@@ -12,12 +12,21 @@ Output of other threads during the block is captured too (fd 2 is the process's)
 from __future__ import annotations
 
 import os
+import re
 import sys
 import tempfile
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
-__all__ = ["StderrCapture"]
+__all__ = ["StderrCapture", "normalise"]
+
+#: CasADi stamps each warning with the wall-clock time ("CasADi - 2026-11-30 20:34:53 WARNING(...)").
+_STAMP = re.compile(r"\b\d{4}-\d{2}-\d{2} \d{2}:\d{2}:\d{2}(\.\d+)? ")
+
+
+def normalise(line: str) -> str:
+    """A line without its time stamp, so that repeats of one warning count as one kind."""
+    return _STAMP.sub("", line.strip())
 
 
 class StderrCapture:
@@ -68,7 +77,7 @@ class StderrCapture:
         f.seek(0)
         f.truncate()
         for raw in data.decode(errors="replace").splitlines():
-            line = raw.strip()
+            line = normalise(raw)
             if not line:
                 continue
             self.lines += 1
