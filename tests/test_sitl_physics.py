@@ -25,8 +25,10 @@ from auvdock.cli import app
 from auvdock.hardware.ardusub import PWM_PER_UNIT, mix, motor_pwm, t200_pwm_to_force, thrust_from_channels
 from auvdock.hardware.plant import TruthPlant
 from auvdock.hardware.sitl_physics import (
+    DESCENT_SPEED_M_S,
     MAGIC_16,
     MAGIC_32,
+    SURFACE_S,
     SitlPhysics,
     fdm_reply,
     motor_thrust,
@@ -180,7 +182,7 @@ def test_listen_addresses() -> None:
 
 
 def test_neutral_frames_hold_the_vehicle_at_the_start(serve) -> None:
-    physics, peer = serve()
+    physics, peer = serve(boot_at_surface=False)
     x0 = physics.mission.start_state()
     for k in range(400):
         msg = peer.exchange(frame(k))
@@ -188,8 +190,49 @@ def test_neutral_frames_hold_the_vehicle_at_the_start(serve) -> None:
         assert msg["position"] == list(x0[0:3]) and msg["attitude"] == list(x0[3:6])
         assert msg["velocity"] == [0.0, 0.0, 0.0]
         assert msg["imu"] == {"gyro": [0.0, 0.0, 0.0], "accel_body": [0.0, 0.0, -G]}
-    assert physics.holding and physics.frames == 400 and physics.t == pytest.approx(1.0)
+    assert physics.hold_phase == "start" and physics.frames == 400 and physics.t == pytest.approx(1.0)
     assert [e.kind for e in physics.events] == ["connected"]
+    status = physics.status()
+    dock = physics.mission.build_dock()
+    assert status.dock_distance_m == pytest.approx(np.linalg.norm(dock.position(1.0) - x0[0:3]))
+    distances = [np.linalg.norm(dock.position((k + 1) / RATE) - x0[0:3]) for k in range(400)]
+    assert status.closest_m == pytest.approx(min(distances))
+    assert status.closest_t == pytest.approx((int(np.argmin(distances)) + 1) / RATE)
+
+
+def test_distances_are_to_the_true_dock(serve) -> None:
+    """A camera mission's rendered dock is displaced (camera.synthetic.dock_offset_m): the true one."""
+    physics, peer = serve("sitl_camera", boot_at_surface=False, dock_offset_ned_m=[0.0, 0.2, 0.0])
+    peer.exchange(frame(0))
+    true_dock = physics.mission.build_dock().position(1 / RATE) + np.array([0.0, 0.2, 0.0])
+    x0 = physics.mission.start_state()
+    assert physics.status().dock_distance_m == pytest.approx(np.linalg.norm(true_dock - x0[0:3]))
+
+
+def test_held_vehicle_boots_at_the_surface_and_is_lowered_to_the_start(serve) -> None:
+    """ArduSub zeroes its depth sensor at boot: the held vehicle is at the surface first, then
+    lowered along a smooth path whose velocity and IMU agree with its positions, then held."""
+    physics, peer = serve()  # tank: start 1 m deep
+    x0 = physics.mission.start_state()
+    end = physics.at_start_s
+    assert end == pytest.approx(SURFACE_S + 1.5 * x0[2] / DESCENT_SPEED_M_S)
+    n = int(round(end * RATE)) + RATE
+    msgs = [peer.exchange(frame(k)) for k in range(n)]
+    t = np.array([m["timestamp"] for m in msgs])
+    z = np.array([m["position"][2] for m in msgs])
+    vz = np.array([m["velocity"][2] for m in msgs])
+    fz = np.array([m["imu"]["accel_body"][2] for m in msgs])
+    assert all(m["position"][0:2] == list(x0[0:2]) and m["attitude"] == list(x0[3:6]) for m in msgs)
+    surface, lowering, start = t <= SURFACE_S, (t > SURFACE_S) & (t < end), t >= end
+    assert np.all(z[surface] == 0.0) and np.all(vz[surface] == 0.0) and np.all(fz[surface] == -G)
+    assert np.all(np.diff(z[lowering]) > 0) and 0.0 < z[lowering].min() and z[lowering].max() < x0[2]
+    assert vz[lowering].max() == pytest.approx(DESCENT_SPEED_M_S, rel=0.01)
+    np.testing.assert_allclose(np.diff(z), (vz[1:] + vz[:-1]) / 2 / RATE, atol=1e-7)  # velocity fits
+    np.testing.assert_allclose(fz[1:], -G + np.diff(vz) * RATE, atol=1e-9)  # the IMU fits the velocity
+    assert np.all(z[start] == x0[2]) and np.all(vz[start] == 0.0)
+    assert np.all(fz[start][1:] == -G)  # (the first: the mean of the descent's last step, still slowing)
+    assert [e.kind for e in physics.events] == ["connected", "lowering", "at-start"]
+    assert physics.events[2].t == pytest.approx(end, abs=1.5 / RATE) and physics.hold_phase == "start"
 
 
 def test_no_hold_neutral_vehicle_rises_at_its_terminal_velocity(serve) -> None:
@@ -269,8 +312,9 @@ def test_reset_holds_the_vehicle_again(serve) -> None:
     for k in range(200):
         peer.exchange(frame(k, surge_pwm(0.6)))
     assert not physics.holding
-    msg = peer.exchange(frame(3))
-    assert physics.holding and msg["position"] == list(x0[0:3]) and msg["velocity"] == [0.0, 0.0, 0.0]
+    msg = peer.exchange(frame(3))  # at the surface again, as after a boot
+    assert physics.hold_phase == "surface" and msg["velocity"] == [0.0, 0.0, 0.0]
+    assert msg["position"] == [x0[0], x0[1], 0.0] and msg["timestamp"] == pytest.approx(1 / RATE)
     assert [e.kind for e in physics.events] == ["connected", "release", "reset"]
 
 
@@ -296,7 +340,7 @@ def test_32_channel_frames_work_and_garbage_is_ignored_and_counted(serve) -> Non
 
 
 def test_forward_pwm_pushes_the_vehicle_along_body_x_with_the_t200_force(serve) -> None:
-    physics, peer = serve()  # held until this first frame with thrust
+    physics, peer = serve(boot_at_surface=False)  # held at the start until this first frame with thrust
     v = physics.vehicle
     pwm = surge_pwm(0.5)
     u = motor_thrust(pwm)

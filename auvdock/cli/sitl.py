@@ -70,6 +70,14 @@ def _bind_problem(e: OSError) -> str:
     return e.strerror or str(e)
 
 
+_HOLD_TEXT = {
+    "surface": ", held at the surface",
+    "lowering": ", being lowered to the start",
+    "start": ", held at the start",
+    "free": "",
+}
+
+
 def _line(text: str) -> None:
     console.print(text, markup=False, highlight=False, soft_wrap=True)
 
@@ -95,8 +103,9 @@ def sitl_physics(
         True,
         "--hold/--no-hold",
         "--hold-until-thrust/--no-hold-until-thrust",
-        help="Hold the vehicle at the mission's start until ArduSub's motors first push (it would "
-        "otherwise float up while SITL's EKF settles and ArduSub cannot yet arm).",
+        help="Until ArduSub's motors first push, hold the vehicle: at the surface while ArduSub boots "
+        "(it zeroes its depth sensor there), then lowered to the mission's start and held there (it "
+        "would otherwise float up while SITL's EKF settles and ArduSub cannot yet arm).",
     ),
     duration: float | None = typer.Option(
         None, "--duration", help="Stop after this much physics time, s (default: until Ctrl-C)."
@@ -126,7 +135,13 @@ def sitl_physics(
 
     try:
         physics = SitlPhysics(
-            m, listen=address, hold_until_thrust=hold, duration_s=duration, on_event=on_event, clock=clock
+            m,
+            listen=address,
+            hold_until_thrust=hold,
+            duration_s=duration,
+            dock_offset_ned_m=m.camera.synthetic.dock_offset_m if target is not None else (0.0, 0.0, 0.0),
+            on_event=on_event,
+            clock=clock,
         )
     except ValueError as e:
         fail_input(f"{where}: vehicle: {e}")
@@ -157,7 +172,15 @@ def sitl_physics(
 
     v = physics.vehicle
     x0 = m.start_state()
-    hold_text = "held at the start until the motors push" if hold else "free from the first frame (--no-hold)"
+    if not hold:
+        hold_text = "free from the first frame (--no-hold)"
+    elif physics.at_start_s > 0:
+        hold_text = (
+            f"held until the motors push: at the surface (ArduSub zeroes its depth sensor at boot), "
+            f"then lowered to the start by t = {physics.at_start_s:.1f} s"
+        )
+    else:
+        hold_text = "held at the start until the motors push"
     cam_text = f"; camera {stream.description}" if stream is not None else ""
     _line(
         f"sitl-physics: listening on udp {host}:{port} for ArduPilot SITL (--model JSON); mission {m.name}, "
@@ -207,8 +230,7 @@ def _status_line(
     if s.frames == 0:
         return f"  waiting for SITL's first servo frame on udp {host}:{port} ..."
     motors = "motors active" if s.motors_active else "motors neutral"
-    if s.holding:
-        motors += ", held at the start"
+    motors += _HOLD_TEXT[s.hold]
     cam = ""
     if stream is not None:
         cam = f"  camera {stream.frames_sent} frames"
@@ -225,8 +247,10 @@ def _summary(physics: SitlPhysics, stream: TruthCameraStream | None) -> str:
     text = (
         f"physics time {s.t:.3f} s, {s.frames} frames, {s.repeats} repeated, {s.ignored} ignored, "
         f"{s.resets} SITL restarts; vehicle at ({s.state[0]:.2f}, {s.state[1]:.2f}, {s.state[2]:.2f}) m NED, "
-        f"{s.dock_distance_m:.2f} m from the dock"
+        f"{s.dock_distance_m:.3f} m from the dock"
     )
+    if s.frames:
+        text += f", closest {s.closest_m:.3f} m at t = {s.closest_t:.2f} s"
     if stream is not None:
         text += f"; camera {stream.frames_sent} frames"
     return text

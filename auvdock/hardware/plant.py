@@ -155,14 +155,12 @@ class TruthPlant:
         self.x = x_new
         return self.x
 
-    def hold(self, x_hold: np.ndarray | list[float] | None = None) -> np.ndarray:
-        """A step in which the vehicle is held still: at ``x_hold``'s pose (default: the current
-        one), velocities zero, the IMU at rest.  Returns the state (the plant's own array)."""
-        x = self.x if x_hold is None else np.array(x_hold, dtype=float).ravel()
-        x = x.copy()
-        x[6:12] = 0.0
-        self.x = x
-        self.nu1_dot = np.zeros(3)
+    def place(self, x: np.ndarray | list[float], nu1_dot: np.ndarray | None = None) -> np.ndarray:
+        """A step whose motion is prescribed instead of integrated: the vehicle is put at state ``x``
+        (12,) and the IMU reads the body acceleration ``nu1_dot`` (3,, m/s^2 in {b}; default at
+        rest).  Returns the state (the plant's own array)."""
+        self.x = np.array(x, dtype=float).ravel()
+        self.nu1_dot = np.zeros(3) if nu1_dot is None else np.array(nu1_dot, dtype=float).ravel()
         return self.x
 
     # --- what an IMU reads ------------------------------------------------------------------

@@ -51,10 +51,22 @@ Protocol (ArduPilot ``libraries/SITL/SIM_JSON.cpp`` / ``SIM_JSON.h``)
   :func:`auvdock.hardware.ardusub.thrust_from_channels` after the mixer.  Channels 9+ are
   ignored.
 * **Hold** (``hold_until_thrust=True``, default): until the motors first push (a motor
-  outside the T200's dead band), the vehicle is held at the mission's start pose, at rest --
-  a buoyant vehicle would otherwise float to the surface during the tens of seconds SITL's
-  EKF needs before it can arm.  Time runs and the IMU reads rest meanwhile.  The first frame
-  with thrust releases it (event ``release``); a reset holds it again.
+  outside the T200's dead band), the vehicle's motion is prescribed, not integrated -- a
+  buoyant vehicle would otherwise float to the surface during the tens of seconds SITL's
+  EKF needs before ArduSub can arm.  Like a BlueROV2 put in the water, it boots **at the
+  surface** (the start's x, y and attitude, z = 0, at rest) for :data:`SURFACE_S` s of
+  physics time, is then **lowered** to the start depth along a smooth path (velocity up to
+  :data:`DESCENT_SPEED_M_S`, velocity and IMU consistent with it; event ``lowering``), and
+  **held at the start pose**, at rest (event ``at-start``), until the first frame with
+  thrust releases it (event ``release``) from wherever it is then.  A reset starts over.
+  Why the surface first: ArduSub zeroes its depth sensor at boot and re-zeroes it whenever
+  it reads a positive altitude (``ArduSub/sensors.cpp``: "If we are reading a positive
+  altitude, the sensor needs calibration"), so a vehicle that boots 1 m deep takes 1 m as
+  its surface and can never again measure a depth shallower than that: its EKF then stays
+  at the boot depth while the vehicle rises.  ``boot_at_surface=False`` holds it at the
+  start pose from the first frame.  With ``hold_until_thrust=False`` the vehicle is free
+  from the first frame at the start pose (ArduSub's depth is then relative to that boot
+  depth, clamped as above).
 
 Events (:attr:`SitlPhysics.events`, and ``on_event(event)`` as they happen, from the
 server's thread): ``connected`` (the first frame, from where), ``peer`` (frames from
@@ -68,6 +80,7 @@ alone.
 from __future__ import annotations
 
 import json
+import math
 import socket
 import struct
 import threading
@@ -88,9 +101,11 @@ from .plant import TruthPlant
 
 __all__ = [
     "DEFAULT_LISTEN",
+    "DESCENT_SPEED_M_S",
     "MAGIC_16",
     "MAGIC_32",
     "N_MOTORS",
+    "SURFACE_S",
     "PhysicsEvent",
     "PhysicsStatus",
     "ServoFrame",
@@ -108,6 +123,12 @@ MAGIC_16 = 18458
 MAGIC_32 = 29569
 #: ArduSub's VECTORED_6DOF frame: motors 1..8 on servo channels 1..8.
 N_MOTORS = 8
+#: Hold: physics time at the surface after a (re)start, s (ArduSub zeroes its depth sensor at boot).
+SURFACE_S = 2.0
+#: Hold: the fastest the vehicle is lowered from the surface to the start depth, m/s.
+DESCENT_SPEED_M_S = 0.25
+#: Hold: the shortest descent, s.
+DESCENT_MIN_S = 2.0
 
 _HEADER = struct.Struct("<HHI")  # magic, frame_rate, frame_count
 _PWM16 = struct.Struct("<16H")
@@ -238,11 +259,14 @@ class PhysicsStatus:
     state : ndarray (12,)
         The vehicle's true state.
     dock_distance_m : float
-        From the vehicle's origin to the dock's docking point at physics time ``t``, m.
+        From the vehicle's origin to the true docking point at physics time ``t``, m.
+    closest_m, closest_t : float
+        The closest the vehicle came to the docking point since the (re)start, m, and when
+        (physics time, s); inf and nan before the first frame.
     motors_active : bool
         The last frame had thrust (a motor outside the dead band).
-    holding : bool
-        The vehicle is held at its start pose (see Hold).
+    hold : str
+        ``surface``, ``lowering`` or ``start`` while the vehicle is held (see Hold), ``free`` after.
     peer : (str, int) or None
         Where the last frame came from.
     """
@@ -255,9 +279,16 @@ class PhysicsStatus:
     frame_rate_hz: int
     state: np.ndarray
     dock_distance_m: float
+    closest_m: float
+    closest_t: float
     motors_active: bool
-    holding: bool
+    hold: str
     peer: tuple[str, int] | None
+
+    @property
+    def holding(self) -> bool:
+        """Whether the vehicle is held (see Hold)."""
+        return self.hold != "free"
 
     @property
     def depth_m(self) -> float:
@@ -276,9 +307,15 @@ class SitlPhysics:
     listen : (str, int)
         UDP address to listen on (default 127.0.0.1:9002, where SITL sends).
     hold_until_thrust : bool
-        Hold the vehicle at the start pose until the motors first push (see Hold).
+        Prescribe the vehicle's motion until the motors first push (see Hold).
+    boot_at_surface : bool
+        Hold: boot at the surface and lower the vehicle to the start (see Hold); False: held
+        at the start pose from the first frame.
     duration_s : float, optional
         Stop (after answering) once physics time reaches this, s.
+    dock_offset_ned_m : array_like (3,)
+        Where the true dock is relative to the mission's (NED, m; a camera mission's
+        ``camera.synthetic.dock_offset_m`` when its view is streamed), for the distances.
     substeps : int, optional
         RK4 substeps per step (default ``mission.simulation.substeps``).
     surface : bool
@@ -300,7 +337,9 @@ class SitlPhysics:
         *,
         listen: tuple[str, int] = DEFAULT_LISTEN,
         hold_until_thrust: bool = True,
+        boot_at_surface: bool = True,
         duration_s: float | None = None,
+        dock_offset_ned_m: np.ndarray | list[float] | tuple[float, ...] = (0.0, 0.0, 0.0),
         substeps: int | None = None,
         surface: bool = True,
         on_event: Callable[[PhysicsEvent], None] | None = None,
@@ -313,6 +352,7 @@ class SitlPhysics:
         self.mission = mission
         self.listen = (str(listen[0]), int(listen[1]))
         self.hold_until_thrust = bool(hold_until_thrust)
+        self.boot_at_surface = bool(boot_at_surface)
         self.duration_s = None if duration_s is None else float(duration_s)
         self.on_event = on_event
         self.clock: Clock = wall_clock if clock is None else clock
@@ -330,6 +370,10 @@ class SitlPhysics:
                 self.vehicle, self.flow, mission.start_state(), substeps=n_sub, surface=surface
             )
         self._x_start = mission.start_state().astype(float)
+        self._dock_offset = np.array(dock_offset_ned_m, dtype=float).reshape(3)
+        z0 = float(self._x_start[2])
+        self._lowered = self.boot_at_surface and z0 > 0.0
+        self._descent_s = max(DESCENT_MIN_S, 1.5 * z0 / DESCENT_SPEED_M_S) if self._lowered else 0.0
 
         self._lock = threading.Lock()
         self._stop_event = self.clock.event()
@@ -346,7 +390,7 @@ class SitlPhysics:
         self._t_base = 0.0  # physics time where that run began, s
         self._k = 0  # steps in that run: t = t_base + k / rate
         self._t = 0.0
-        self._holding = self.hold_until_thrust
+        self._hold = "free"
         self._motors_active = False
         self._frames = 0
         self._repeats = 0
@@ -354,9 +398,9 @@ class SitlPhysics:
         self._resets = 0
         self._skipped = 0
         self._finished = False
-        if self._holding:
-            self.plant.hold(self._x_start)
+        self._closest = (math.inf, math.nan)
         self._pose: tuple[float, np.ndarray] = (0.0, self.plant.x[0:6].copy())
+        self._start_over()
 
     # --- public state ------------------------------------------------------------------------
     @property
@@ -401,8 +445,18 @@ class SitlPhysics:
 
     @property
     def holding(self) -> bool:
-        """Whether the vehicle is held at its start pose."""
-        return self._holding
+        """Whether the vehicle's motion is prescribed (see Hold)."""
+        return self._hold != "free"
+
+    @property
+    def hold_phase(self) -> str:
+        """``surface``, ``lowering``, ``start`` (held, see Hold) or ``free``."""
+        return self._hold
+
+    @property
+    def at_start_s(self) -> float:
+        """Physics time at which a held vehicle reaches the start pose (0 without the surface boot), s."""
+        return SURFACE_S + self._descent_s if self._lowered else 0.0
 
     @property
     def events(self) -> list[PhysicsEvent]:
@@ -438,7 +492,7 @@ class SitlPhysics:
         with self._lock:
             x = self.plant.state
             t = self._t
-            dist = float(np.linalg.norm(x[POS] - np.asarray(self.dock.position(t), dtype=float)))
+            dist = self._dock_distance(x, t)
             return PhysicsStatus(
                 t=t,
                 frames=self._frames,
@@ -448,8 +502,10 @@ class SitlPhysics:
                 frame_rate_hz=self._rate,
                 state=x,
                 dock_distance_m=dist,
+                closest_m=self._closest[0],
+                closest_t=self._closest[1],
                 motors_active=self._motors_active,
-                holding=self._holding,
+                hold=self._hold,
                 peer=self._peer,
             )
 
@@ -498,25 +554,69 @@ class SitlPhysics:
         self._t = self._t_base + self._k / rate
         thrust = motor_thrust(frame.pwm)
         self._motors_active = bool(np.any(thrust != 0.0))
-        if self._holding and self._motors_active:
-            self._holding = False
-            self._event("release", f"motors left neutral at t = {t_prev:.3f} s: the vehicle is released")
-        if self._holding:
-            self.plant.hold(self._x_start)
-        else:
+        if self._hold != "free" and self._motors_active:
+            self._hold = "free"
+            where = (
+                "at the start" if np.array_equal(self.plant.x[0:6], self._x_start[0:6]) else "where it was"
+            )
+            self._event(
+                "release", f"motors left neutral at t = {t_prev:.3f} s: the vehicle is released {where}"
+            )
+        if self._hold == "free":
             self.plant.step(thrust, t_prev, 1.0 / rate)
+        else:
+            x, phase = self._held(self._t)
+            x_prev, _ = self._held(t_prev)
+            self.plant.place(x, (x[6:9] - x_prev[6:9]) / (self._t - t_prev))  # mean over the step
+            if phase != self._hold:
+                self._hold = phase
+                if phase == "lowering":
+                    self._event("lowering", f"lowered from the surface to the start, {self._descent_s:.1f} s")
+                else:
+                    self._event("at-start", "held at the start pose until the motors push")
+        self._pose = (self._t, self.plant.x[0:6].copy())
+        d = self._dock_distance(self.plant.x, self._t)
+        if d < self._closest[0]:
+            self._closest = (d, self._t)
+
+    def _dock_distance(self, x: np.ndarray, t: float) -> float:
+        """From the vehicle's origin to the true docking point at physics time ``t``, m."""
+        p = np.asarray(self.dock.position(t), dtype=float) + self._dock_offset
+        return float(np.linalg.norm(x[POS] - p))
+
+    def _held(self, t: float) -> tuple[np.ndarray, str]:
+        """The held vehicle's state (12,) and hold phase at physics time ``t`` (attitude fixed)."""
+        x = self._x_start.copy()
+        x[6:12] = 0.0
+        if not self._lowered or t >= SURFACE_S + self._descent_s:
+            return x, "start"
+        if t < SURFACE_S:
+            x[2] = 0.0
+            return x, "surface"
+        z0, T = float(self._x_start[2]), self._descent_s
+        s = (t - SURFACE_S) / T  # smoothstep 3 s^2 - 2 s^3: at rest at both ends
+        x[2] = z0 * (3 * s**2 - 2 * s**3)
+        R = TruthPlant.rotation(x)
+        x[6:9] = R.T @ np.array([0.0, 0.0, z0 * 6 * s * (1 - s) / T])
+        return x, "lowering"
+
+    def _start_over(self) -> None:
+        """Vehicle at the start of a run: held (at the surface or the start) or free at the start pose."""
+        if self.hold_until_thrust:
+            x, self._hold = self._held(0.0)
+            self.plant.place(x)
+        else:
+            self._hold = "free"
+            self.plant.reset(self._x_start)
         self._pose = (self._t, self.plant.x[0:6].copy())
 
     def _reset(self, why: str) -> None:
         self._resets += 1
-        self.plant.reset(self._x_start)
         self._t_base, self._k, self._t = 0.0, 0, 0.0
         self._last_reply = None
-        self._holding = self.hold_until_thrust
-        if self._holding:
-            self.plant.hold(self._x_start)
-        self._pose = (0.0, self.plant.x[0:6].copy())
-        self._event("reset", f"{why}; the vehicle is back at the start, physics time 0")
+        self._closest = (math.inf, math.nan)
+        self._start_over()
+        self._event("reset", f"{why}; the vehicle starts over, physics time 0")
 
     def _event(self, kind: str, detail: str) -> None:
         ev = PhysicsEvent(self.clock.time(), self._t, kind, detail)
