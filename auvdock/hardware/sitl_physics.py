@@ -34,14 +34,16 @@ Protocol (ArduPilot ``libraries/SITL/SIM_JSON.cpp`` / ``SIM_JSON.h``)
   over ground in NED (m/s).  The truth, without sensor noise: SITL adds its own.
   SIM_JSON has no battery field (SITL simulates the battery itself, ``SIM_BATT_VOLTAGE``).
 * **Lockstep**: the vehicle moves only when a frame comes.  A frame whose ``frame_count`` is
-  higher than the last one's is NEW: the plant steps exactly ``1 / frame_rate`` s (each
-  frame's own rate: SITL's rate moves by 1 Hz per frame from its start value, 1200 Hz, to
-  the firmware's loop rate) and the answer carries ``timestamp + 1 / frame_rate``.
+  higher than the last one's is NEW: the plant steps exactly ``1 / frame_rate`` s and the
+  answer carries ``timestamp + 1 / frame_rate``.  Each frame's own rate: SIM_JSON takes its
+  rate from the answers' time steps and moves it by 1 Hz per frame towards the parameter
+  ``SIM_RATE_HZ`` (1200 Hz by default, what ArduSub SITL sends), so a changed
+  ``SIM_RATE_HZ`` makes every frame's rate different for a while.
   The same ``frame_count`` again (SITL resends a frame when no answer came within about a
   second, or when an answer did not parse) gets the same answer again, nothing steps
   (:attr:`SitlPhysics.repeats`).  A ``frame_count`` lower than the last one means SITL
-  restarted: the vehicle goes back to the mission's start, physics time to 0 (event
-  ``reset``), and the frame is then stepped as new.  (SITL, for its part, takes a timestamp
+  restarted: the vehicle starts over (see Hold), physics time at 0 (event ``reset``), and
+  the frame is then stepped as new.  (SITL, for its part, takes a timestamp
   that goes back as a "physics reset" and carries on without moving its own clock back.)
 * **Motors**: servo channels 1..8 are ArduSub's motors 1..8 of the VECTORED_6DOF frame, in
   the order of :data:`auvdock.hardware.ardusub.MOTOR_FACTORS` and of the vehicle's
@@ -70,7 +72,8 @@ Protocol (ArduPilot ``libraries/SITL/SIM_JSON.cpp`` / ``SIM_JSON.h``)
 
 Events (:attr:`SitlPhysics.events`, and ``on_event(event)`` as they happen, from the
 server's thread): ``connected`` (the first frame, from where), ``peer`` (frames from
-another address), ``reset``, ``release``, ``duration`` (``duration_s`` of physics time done).
+another address), ``lowering``, ``at-start``, ``release``, ``reset``, ``duration``
+(``duration_s`` of physics time done).
 
 Clock: the server's waits (for a datagram, for its thread) go through a
 :class:`auvdock.clock.Clock` (default the wall clock); physics time comes from the frames
