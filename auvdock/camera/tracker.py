@@ -117,6 +117,26 @@ class SyntheticCamera:
         """Whether the markers are hidden at mission time ``t`` (s)."""
         return any(a <= t < b for a, b in self.dropout)
 
+    def render(self, t: float, eta: np.ndarray) -> np.ndarray:
+        """The camera's view (h, w) uint8 with the vehicle at pose ``eta`` (6,) at mission time ``t`` (s).
+
+        The dock at ``t`` (moved by ``offset_ned_m``), image noise and blur from this camera's
+        seeded generator; a blank grey frame inside a dropout window.  No pacing.
+        """
+        if self.hidden(t):
+            return np.full((self.camera.height, self.camera.width), 110, dtype=np.uint8)
+        p_dock = self.dock.position(t) + self.offset
+        R_cd, t_cd = camera_from_dock(eta, p_dock, self.dock.heading_rad, self.mount)
+        return render_view(
+            self.camera,
+            self.layout,
+            R_cd,
+            t_cd,
+            noise_std=self.noise_std,
+            blur_px=self.blur_px,
+            rng=self._rng,
+        )
+
     def read(self, timeout_s: float = 1.0) -> Frame | None:
         """The next frame (paced at the frame rate), or None on timeout / before any pose."""
         clock = self.clock
@@ -136,20 +156,7 @@ class SyntheticCamera:
                 continue
             t, eta = pose
             t_capture = clock.now()
-            if self.hidden(t):
-                img = np.full((self.camera.height, self.camera.width), 110, dtype=np.uint8)
-            else:
-                p_dock = self.dock.position(t) + self.offset
-                R_cd, t_cd = camera_from_dock(eta, p_dock, self.dock.heading_rad, self.mount)
-                img = render_view(
-                    self.camera,
-                    self.layout,
-                    R_cd,
-                    t_cd,
-                    noise_std=self.noise_std,
-                    blur_px=self.blur_px,
-                    rng=self._rng,
-                )
+            img = self.render(t, eta)
             self._index += 1
             return Frame(image=img, t_capture=t_capture, index=self._index, pts_s=t)
         return None

@@ -12,6 +12,7 @@ module             commands
 ``sim``            sim, plot
 ``campaign``       compare, report, sweep
 ``fly``            fly, vehicle-sim
+``sitl``           sitl-physics
 ``bench``          bench
 ``camera``         markers, calibrate
 ``cache``          cache info, cache clear
@@ -38,7 +39,7 @@ if _MAIN_THREAD:
 
 # the commands are registered in this order (the order of --help)
 # isort: off
-from . import validate, sim, campaign, fly, bench, camera, cache  # noqa: F401, E402
+from . import validate, sim, campaign, fly, sitl, bench, camera, cache  # noqa: F401, E402
 
 # isort: on
 try:  # typer vendors click since 0.2x; older ones use click itself

@@ -142,8 +142,10 @@ Vehicle behaviour
   counted from the later of the last pilot input and the arming (real ArduSub latches the
   failsafe once per loss and so may not disarm a vehicle armed during a loss; SITL builds of
   ArduSub skip this failsafe altogether).
-* Physics: ``Vehicle.stepper(1 / rate_hz, substeps, flow)`` (RK4, thrust held over the step)
-  from the mission's start state, vehicle and flow field.  ``surface=True`` (default) adds a
+* Physics: :class:`auvdock.hardware.plant.TruthPlant` (the truth plant this simulator shares
+  with :class:`auvdock.hardware.sitl_physics.SitlPhysics`): ``Vehicle.stepper(1 / rate_hz,
+  substeps, flow)`` (RK4, thrust held over the step) from the mission's start state, vehicle
+  and flow field.  ``surface=True`` (default) adds a
   crude free surface the truth model lacks: the depth z is floored at 0 m, and the upward
   velocity (and, in the accelerometer, the upward acceleration) is removed there, so that a
   buoyant vehicle left alone floats instead of flying out of the water.  The BlueROV2 Heavy
@@ -176,13 +178,14 @@ from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 from ..clock import Clock, wall_clock
-from ..geometry import rotation_zyx, wrap_angle
+from ..geometry import wrap_angle
 from ..interrupts import SigintDeferred
 from ..mission import Mission, load_mission
 from ..vehicle.state import ANG, ATT, LIN, POS
 from ..vehicle.thrusters import PWM_MAX_US, PWM_MIN_US, PWM_NEUTRAL_US
 from .ardusub import MODES, NEUTRAL_CHANNELS, PWM_PER_UNIT, mix, motor_pwm, thrust_from_channels
-from .units import ATMOSPHERE_HPA, GRAVITY, MG_M_S2, MRAD_S, WATER_DENSITY, pressure_hpa
+from .plant import TruthPlant
+from .units import ATMOSPHERE_HPA, MG_M_S2, MRAD_S, WATER_DENSITY, pressure_hpa
 
 __all__ = [
     "VehicleSim",
@@ -417,7 +420,14 @@ class VehicleSim:
         with SigintDeferred():
             self.vehicle = mission.build_vehicle()
             self.flow = mission.build_flow()
-            self._step_fn = self.vehicle.stepper(self.dt, n_sub, self.flow)
+            self._plant = TruthPlant(
+                self.vehicle,
+                self.flow,
+                mission.start_state(),
+                substeps=n_sub,
+                surface=self.surface,
+                dt=self.dt,
+            )
         self._rng = np.random.default_rng(mission.seed if seed is None else seed)
         self._sensors = mission.sensors
         imu = mission.sensors.imu
@@ -433,8 +443,6 @@ class VehicleSim:
         self._error: BaseException | None = None
         self._parser = self._new_parser()  # incoming UDP datagrams
 
-        self._x = mission.start_state().astype(float)
-        self._nu1_dot = np.zeros(3)  # mean d(nu_1)/dt over the last physics step
         self._k = 0  # physics steps done; t = k dt
         self._target_dock: Any | None = None
         self._target_period = 0.1
@@ -479,7 +487,7 @@ class VehicleSim:
     def state(self) -> np.ndarray:
         """Truth state (12,): [x y z NED m, phi theta psi rad, u v w body m/s over ground, p q r rad/s]."""
         with self._lock:
-            return self._x.copy()
+            return self._plant.state
 
     @property
     def t(self) -> float:
@@ -623,10 +631,12 @@ class VehicleSim:
         self.stop()
 
     # --- model pieces ------------------------------------------------------------------------
-    @staticmethod
-    def _rotation(x: np.ndarray) -> np.ndarray:
-        """R(Theta) of a state, {b} -> {n}."""
-        return rotation_zyx(float(x[3]), float(x[4]), float(x[5]))
+    @property
+    def _x(self) -> np.ndarray:
+        """The truth state (12,), the plant's own array (read it under the lock, do not change it)."""
+        return self._plant.x
+
+    _rotation = staticmethod(TruthPlant.rotation)
 
     def _channels_now(self) -> np.ndarray:
         t = self._k * self.dt
@@ -744,23 +754,9 @@ class VehicleSim:
         self._check_failsafe(t)
         self._update_thrust()
         if self.hold_start and not self._armed:  # held at the start, at rest, while disarmed
-            self._x = self.mission.start_state().astype(float)
-            self._nu1_dot = np.zeros(3)
-            self._k += 1
-            return
-        x_new = np.asarray(self._step_fn(self._x, self._thrust, t)).ravel()
-        if not np.all(np.isfinite(x_new)):  # cannot happen with sane parameters; keep the vehicle
-            x_new = self._x.copy()
-            x_new[6:12] = 0.0
-        if self.surface and x_new[2] < 0.0:
-            x_new[2] = 0.0
-            R = self._rotation(x_new)
-            v_ned = R @ x_new[6:9]
-            if v_ned[2] < 0.0:
-                v_ned[2] = 0.0
-                x_new[6:9] = R.T @ v_ned
-        self._nu1_dot = (x_new[6:9] - self._x[6:9]) / self.dt
-        self._x = x_new
+            self._plant.place(self.mission.start_state())
+        else:
+            self._plant.step(self._thrust, t)
         self._k += 1
 
     def _check_failsafe(self, t: float) -> None:
@@ -1121,17 +1117,8 @@ class VehicleSim:
 
     def _imu(self) -> tuple[np.ndarray, np.ndarray]:
         """(specific force in {b} m/s^2, body rates rad/s): the last physics step's mean acceleration."""
-        x = self._x
-        a_b = self._nu1_dot + np.cross(x[ANG], x[LIN])
-        R = self._rotation(x)
-        if self.surface and x[2] <= 0.0:
-            a_n = R @ a_b
-            if a_n[2] < 0.0:
-                a_n[2] = 0.0
-                a_b = R.T @ a_n
-        f_b = a_b - R.T @ np.array([0.0, 0.0, GRAVITY])
+        f_b, w = self._plant.imu()
         imu = self._sensors.imu
-        w = x[ANG]
         if self.noise:
             f_b = f_b + self._bias_a + self._n(imu.accel_noise_m_s2, 3)
             w = w + self._bias_g + self._n(imu.gyro_noise_rad_s, 3)

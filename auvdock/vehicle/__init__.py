@@ -93,6 +93,30 @@ class Vehicle:
         key = (float(dt), int(substeps), id(flow))
         if key in self._steppers:
             return self._steppers[key]
+        x, u, t, z = self._truth_rk4(float(dt), substeps, flow)
+        fn = ca.Function("truth_step", [x, u, t], [z[0:NX]], ["x", "u", "t"], ["x_next"])
+        self._steppers[key] = fn
+        self._flow_refs = getattr(self, "_flow_refs", []) + [flow]  # keep id() keys valid
+        return fn
+
+    def stepper_any_dt(self, substeps: int = 4, flow: Any = None) -> ca.Function:
+        """The integrator of :meth:`stepper` with the step as an input: ``(x, u, t, dt) -> x(t + dt)``.
+
+        One function for every step length ``dt`` (s), for a caller whose step changes from
+        one call to the next (ArduPilot SITL's frame rate); same model, same RK4.
+        """
+        key = ("any_dt", int(substeps), id(flow))
+        if key in self._steppers:
+            return self._steppers[key]
+        h = ca.SX.sym("dt")
+        x, u, t, z = self._truth_rk4(h, substeps, flow)
+        fn = ca.Function("truth_step_dt", [x, u, t, h], [z[0:NX]], ["x", "u", "t", "dt"], ["x_next"])
+        self._steppers[key] = fn
+        self._flow_refs = getattr(self, "_flow_refs", []) + [flow]  # keep id() keys valid
+        return fn
+
+    def _truth_rk4(self, dt: Any, substeps: int, flow: Any) -> tuple[ca.SX, ca.SX, ca.SX, ca.SX]:
+        """Symbols x, u, t and the augmented state [x; t] after ``substeps`` RK4 steps over ``dt``."""
         x = ca.SX.sym("x", NX)
         u = ca.SX.sym("u", self.n_thrusters)
         t = ca.SX.sym("t")
@@ -112,11 +136,7 @@ class Vehicle:
         def f(z: ca.SX) -> ca.SX:  # augmented state [x; t]
             return ca.vertcat(xdot(z[0:NX], z[NX]), 1)
 
-        z = rk4(f, ca.vertcat(x, t), dt, substeps)
-        fn = ca.Function("truth_step", [x, u, t], [z[0:NX]], ["x", "u", "t"], ["x_next"])
-        self._steppers[key] = fn
-        self._flow_refs = getattr(self, "_flow_refs", []) + [flow]  # keep id() keys valid
-        return fn
+        return x, u, t, rk4(f, ca.vertcat(x, t), dt, substeps)
 
 
 def load_vehicle(

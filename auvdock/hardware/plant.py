@@ -1,0 +1,185 @@
+"""The truth plant of auvdock's vehicle simulators: the one 6-DOF model, a crude free surface, an IMU's view.
+
+:class:`TruthPlant` holds the true state of the vehicle and steps it with the truth
+integrator of :class:`auvdock.vehicle.Vehicle` (RK4 through the mission's flow field, thrust
+held over the step, the integrator :func:`auvdock.simulation.simulate` uses).  Both
+simulators that stand in for the water fly it: :class:`auvdock.hardware.vehicle_sim.VehicleSim`
+(a MAVLink vehicle) and :class:`auvdock.hardware.sitl_physics.SitlPhysics` (the physics
+backend of ArduPilot SITL), so that they move the same vehicle the same way::
+
+    plant = TruthPlant(mission.build_vehicle(), mission.build_flow(), mission.start_state(), dt=0.01)
+    plant.step(thrust_N, t)            # t -> t + 0.01 s
+    f_b, w = plant.imu()               # what an ideal IMU measured over that step
+
+State
+-----
+``x = [x, y, z, phi, theta, psi, u, v, w, p, q, r]`` (12,): position NED (m), ZYX Euler
+angles of {b} in {n} (rad), body-frame velocity over ground (m/s) and body rates (rad/s).
+
+Free surface
+------------
+The model has no free surface.  With ``surface=True`` (default) the depth is floored at
+z = 0 m after each step, and there the upward velocity is removed (and, in the IMU, the
+upward acceleration), so that a buoyant vehicle left alone floats at the surface instead of
+flying out of the water.
+
+IMU
+---
+:meth:`TruthPlant.imu` is what an ideal, noise-free IMU at the body origin read over the
+last step: the **specific force** in {b} (m/s^2), ``a_b - R^T g_n`` with
+``a_b = nu_1_dot + nu_2 x nu_1`` the acceleration of the body origin over ground expressed
+in {b}, ``nu_1_dot`` the mean over the last step, ``(nu_1(t) - nu_1(t - dt)) / dt`` (an
+IMU's averaged sample; the model's integrator is the only place the flow and its rate along
+the path enter) and ``g_n = [0, 0, 9.80665]`` m/s^2 -- level and at rest it reads
+(0, 0, -9.80665) m/s^2; and the body rates p, q, r (rad/s) of the current state.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from ..geometry import rotation_zyx
+from ..measurements import GRAVITY
+from ..vehicle import Vehicle
+from ..vehicle.state import ANG, LIN, NX
+
+__all__ = ["TruthPlant"]
+
+_G_N = np.array([0.0, 0.0, GRAVITY])
+
+
+class TruthPlant:
+    """The true motion of one vehicle (see the module docstring).
+
+    Parameters
+    ----------
+    vehicle : Vehicle
+        The model (:meth:`auvdock.mission.Mission.build_vehicle`).
+    flow : FlowField or None
+        The true current (:meth:`auvdock.mission.Mission.build_flow`); None is still water.
+    x0 : array_like (12,)
+        Start state (see State), e.g. :meth:`auvdock.mission.Mission.start_state`.
+    substeps : int
+        RK4 substeps per step.
+    surface : bool
+        Floor the depth at 0 m (the crude free surface).
+    dt : float, optional
+        The usual step, s: its integrator (:meth:`auvdock.vehicle.Vehicle.stepper`) is built
+        at once and used by :meth:`step` when no other step is given.  Other steps use one
+        integrator with the step as an input (:meth:`auvdock.vehicle.Vehicle.stepper_any_dt`),
+        built at once when ``dt`` is None, else on first use.
+    """
+
+    def __init__(
+        self,
+        vehicle: Vehicle,
+        flow: Any,
+        x0: np.ndarray | list[float],
+        *,
+        substeps: int = 4,
+        surface: bool = True,
+        dt: float | None = None,
+    ) -> None:
+        x0 = np.array(x0, dtype=float).ravel()
+        if x0.shape != (NX,):
+            raise ValueError(f"x0: expected a state of {NX} numbers, got shape {x0.shape}")
+        if dt is not None and not dt > 0:
+            raise ValueError(f"dt: must be positive, got {dt}")
+        self.vehicle = vehicle
+        self.flow = flow
+        self.substeps = int(substeps)
+        self.surface = bool(surface)
+        self.dt = None if dt is None else float(dt)
+        self._fixed: ca.Function | None = (
+            None if dt is None else vehicle.stepper(float(dt), self.substeps, flow)
+        )
+        self._any_dt: ca.Function | None = vehicle.stepper_any_dt(self.substeps, flow) if dt is None else None
+        self._x0 = x0.copy()
+        self.x = x0.copy()
+        self.nu1_dot = np.zeros(3)  # mean d(nu_1)/dt over the last step, m/s^2
+
+    # --- state ---------------------------------------------------------------------------------
+    @property
+    def state(self) -> np.ndarray:
+        """A copy of the true state (12,) (see State)."""
+        return self.x.copy()
+
+    @staticmethod
+    def rotation(x: np.ndarray) -> np.ndarray:
+        """R(Theta) (3, 3) of a state: body {b} -> NED {n}."""
+        return rotation_zyx(float(x[3]), float(x[4]), float(x[5]))
+
+    def velocity_ned(self) -> np.ndarray:
+        """Velocity over ground in NED (3,), m/s: ``R(Theta) nu_1``."""
+        return self.rotation(self.x) @ self.x[LIN]
+
+    def reset(self, x0: np.ndarray | list[float] | None = None) -> None:
+        """Put the vehicle back at ``x0`` (default: the start state it was made with); IMU at rest."""
+        self.x = (self._x0 if x0 is None else np.array(x0, dtype=float).ravel()).copy()
+        self.nu1_dot = np.zeros(3)
+
+    # --- motion --------------------------------------------------------------------------------
+    def step(self, thrust_N: np.ndarray, t: float, dt: float | None = None) -> np.ndarray:
+        """Move the vehicle from time ``t`` (s) to ``t + dt`` under thrusts ``thrust_N`` (n,, N).
+
+        ``dt`` (s) defaults to the plant's ``dt``.  A step that goes non-finite (impossible
+        with sane parameters) keeps the pose and stops the vehicle.  Returns the new state
+        (the plant's own array: copy it to keep it).
+        """
+        if dt is None or (self.dt is not None and float(dt) == self.dt):
+            if self._fixed is None:
+                raise ValueError("step: no dt given and the plant has no fixed dt")
+            h = self.dt
+            x_new = np.asarray(self._fixed(self.x, thrust_N, t)).ravel()
+        else:
+            h = float(dt)
+            if not h > 0:
+                raise ValueError(f"dt: must be positive, got {dt}")
+            if self._any_dt is None:
+                self._any_dt = self.vehicle.stepper_any_dt(self.substeps, self.flow)
+            x_new = np.asarray(self._any_dt(self.x, thrust_N, t, h)).ravel()
+        if not np.all(np.isfinite(x_new)):
+            x_new = self.x.copy()
+            x_new[6:12] = 0.0
+        if self.surface and x_new[2] < 0.0:
+            x_new[2] = 0.0
+            R = self.rotation(x_new)
+            v_ned = R @ x_new[6:9]
+            if v_ned[2] < 0.0:
+                v_ned[2] = 0.0
+                x_new[6:9] = R.T @ v_ned
+        self.nu1_dot = (x_new[6:9] - self.x[6:9]) / h
+        self.x = x_new
+        return self.x
+
+    def place(self, x: np.ndarray | list[float], nu1_dot: np.ndarray | None = None) -> np.ndarray:
+        """A step whose motion is prescribed instead of integrated: the vehicle is put at state ``x``
+        (12,) and the IMU reads the body acceleration ``nu1_dot`` (3,, m/s^2 in {b}; default at
+        rest).  Returns the state (the plant's own array)."""
+        self.x = np.array(x, dtype=float).ravel()
+        self.nu1_dot = np.zeros(3) if nu1_dot is None else np.array(nu1_dot, dtype=float).ravel()
+        return self.x
+
+    # --- what an IMU reads ------------------------------------------------------------------
+    def specific_force(self) -> np.ndarray:
+        """Specific force in {b} (3,), m/s^2, over the last step (see IMU)."""
+        x = self.x
+        a_b = self.nu1_dot + np.cross(x[ANG], x[LIN])
+        R = self.rotation(x)
+        if self.surface and x[2] <= 0.0:
+            a_n = R @ a_b
+            if a_n[2] < 0.0:
+                a_n[2] = 0.0
+                a_b = R.T @ a_n
+        return a_b - R.T @ _G_N
+
+    def gyro(self) -> np.ndarray:
+        """Body rates p, q, r (3,), rad/s."""
+        return self.x[ANG].copy()
+
+    def imu(self) -> tuple[np.ndarray, np.ndarray]:
+        """(specific force in {b} m/s^2, body rates rad/s): an ideal IMU's reading of the last step."""
+        return self.specific_force(), self.gyro()
