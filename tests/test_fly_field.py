@@ -298,3 +298,17 @@ def test_neutral_overrides_only_before_arming(loop, tmp_path) -> None:
     t_arm = next(stamp for stamp, mtype, _, d in sim.received
                  if mtype == "COMMAND_LONG" and d["command"] == ARM_DISARM and d["param1"] == 1)  # fmt: skip
     assert all(ch == NEUTRAL for stamp, ch in overrides(sim) if stamp <= t_arm)
+
+
+def test_no_battery_monitor_refuses_to_arm_with_the_fix(loop, tmp_path) -> None:
+    sim, port = loop.vehicle(battery_v=0.0)  # SYS_STATUS voltage_battery 0: no monitor
+    res = loop.fly(port, tmp_path, "--arm", "--timeout", "5")
+    assert res.exit_code == 3, res.output
+    assert res.stderr.strip() == (
+        "aborted: refusing to arm: battery: the vehicle reports no voltage (SYS_STATUS; is BATT_MONITOR "
+        "set?); set fly.min_battery_v: 0 to fly without a floor"
+    )
+    free = write_mission(tmp_path / "m.yaml", fly={"min_battery_v": 0})
+    sim2, port2 = loop.vehicle(free, battery_v=0.0)
+    res = loop.fly(port2, tmp_path, "--arm", "--timeout", "1", mission=free)
+    assert res.exit_code in (0, 1), res.output  # flies without a floor

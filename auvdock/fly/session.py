@@ -262,6 +262,7 @@ class FlySession:
         self._text_chunks: dict[int, list[str]] = {}
         self._battery: float | None = None  # low-passed voltage, V
         self._battery_stamp: int | None = None
+        self._battery_reported = False  # a SYS_STATUS came (with or without a voltage)
         self._t_armed: float | None = None
         self._next_rates = 0.0
         self._rate_refreshes = 0
@@ -443,7 +444,8 @@ class FlySession:
     def _take_battery(self, stamp: int, msg: Any) -> None:
         """Low-pass the battery voltage (SYS_STATUS voltage_battery, else BATTERY_STATUS cell sum)."""
         if msg.get_type() == "SYS_STATUS":
-            if msg.voltage_battery in (0, 65535):
+            self._battery_reported = True
+            if msg.voltage_battery in (0, 65535):  # no battery monitor (ArduPilot's BATT_MONITOR 0)
                 return
             v = msg.voltage_battery / 1000.0
         else:
@@ -528,7 +530,7 @@ class FlySession:
         out = self.telemetry.missing()
         if self.telemetry.measured_depth() is None:
             out.append("SCALED_PRESSURE2 or SCALED_PRESSURE or VFR_HUD")
-        if self.mission.fly.min_battery_v > 0 and self._battery is None:
+        if self.mission.fly.min_battery_v > 0 and not self._battery_reported:
             out.append("SYS_STATUS (battery)")
         return out
 
@@ -615,7 +617,12 @@ class FlySession:
                 f"[{fence.min_depth_m:g}, {fence.max_depth_m:g}] m"
             )
         floor = fly.min_battery_v
-        if floor > 0 and self._battery is not None and self._battery < floor:
+        if floor > 0 and self._battery is None:
+            problems.append(
+                "battery: the vehicle reports no voltage (SYS_STATUS; is BATT_MONITOR set?); "
+                "set fly.min_battery_v: 0 to fly without a floor"
+            )
+        elif floor > 0 and self._battery < floor:
             problems.append(f"battery {self._battery:.2f} V, below the floor {floor:g} V (fly.min_battery_v)")
         if not problems:
             self._event("pre-flight checks pass")
