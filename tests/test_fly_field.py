@@ -312,3 +312,17 @@ def test_no_battery_monitor_refuses_to_arm_with_the_fix(loop, tmp_path) -> None:
     sim2, port2 = loop.vehicle(free, battery_v=0.0)
     res = loop.fly(port2, tmp_path, "--arm", "--timeout", "1", mission=free)
     assert res.exit_code in (0, 1), res.output  # flies without a floor
+
+
+def test_depth_limit_acts_on_the_pressure_sensor_in_flight(loop, tmp_path) -> None:
+    """A plant 300 N buoyant (beyond the vertical thrusters) rises out of a 0.9 m depth floor:
+    abort on the pressure sensor's depth, disarm."""
+    mission = write_mission(tmp_path / "m.yaml", fly={"geofence": {"min_depth_m": 0.9}})
+    plant = write_mission(tmp_path / "plant.yaml", base=mission, vehicle={"overrides": {"buoyancy_N": 412.8}})
+    sim, port = loop.vehicle(plant, hold_start=True)  # held at the start until armed
+    res = loop.fly(port, tmp_path, "--arm", "--timeout", "20", mission=mission)
+    assert res.exit_code == 3, res.output
+    line = res.stderr.strip()
+    pattern = r"aborted: geofence: depth 0\.\d\d m above the minimum 0\.9 m \(SCALED_PRESSURE2\)"
+    assert re.fullmatch(pattern, line), line
+    assert not sim.armed
