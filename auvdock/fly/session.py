@@ -987,6 +987,11 @@ class FlySession:
         self._shutdown(takeover=ending is not None and ending.reason == "takeover")
         if self._stderr.lines:
             self._event(f"solver output: {self._stderr.summary()}")
+        nav = getattr(self.autopilot, "navigation", None)
+        gated = getattr(getattr(nav, "filter", None), "gated", None)
+        if gated:  # readings the navigation filter left out as implausible: is a sensor's std right?
+            what = ", ".join(f"{k} {n}" for k, n in sorted(gated.items()))
+            self._event(f"navigation: readings left out as implausible (beyond 4.9 sigma): {what}")
         if self._rate_refreshes:
             self._event(f"telemetry rates re-requested {self._rate_refreshes} time(s)")
         rec = self._rec
