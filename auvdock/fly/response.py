@@ -75,7 +75,7 @@ def thrust_response(path: str | Path, mission: Mission | None = None) -> list[Ax
         x = run.state[i]
         f0 = specific_force(x, zero)
         meas.append(f_imu[i] - f0)
-        model.append(specific_force(x, thrust_from_channels(channels[i - 1])) - f0)
+        model.append(specific_force(x, thrust_from_channels(channels[i - 1], vehicle.thruster_curve)) - f0)
     meas_a, model_a = np.array(meas).reshape(-1, 3), np.array(model).reshape(-1, 3)
     out = []
     for k, name in enumerate(AXES):

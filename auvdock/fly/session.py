@@ -774,7 +774,7 @@ class FlySession:
         # is counted and recorded, not shown per step
         with SigintDeferred(), self._stderr.capture():
             out = self.autopilot.step(Measurement(t=t, state=x, flow_ned=v_c, readings=readings))
-        channels = channels_for_thrust(out.thrust, self.vehicle.allocation)
+        channels = channels_for_thrust(out.thrust, self.vehicle.allocation, self.vehicle.thruster_curve)
         telemetry = self._telemetry()
         if self.arm_vehicle:
             self._send_channels(channels)
@@ -782,7 +782,8 @@ class FlySession:
             self._send_neutral()
         # what the thrusters will really push (ArduSub's channel path; nothing while disarmed)
         sent = channels if self.arm_vehicle else NEUTRAL_CHANNELS
-        applied = thrust_from_channels(sent) if telemetry["armed"] else np.zeros(self.vehicle.n_thrusters)
+        curve, n = self.vehicle.thruster_curve, self.vehicle.n_thrusters
+        applied = thrust_from_channels(sent, curve) if telemetry["armed"] else np.zeros(n)
         self.autopilot.set_applied(applied)
         series = dict(out.series)
         if "flow_body_true_m_s" in self.autopilot.extra_series:  # unknown on a vehicle
@@ -812,12 +813,16 @@ class FlySession:
             )
         channels = NEUTRAL_CHANNELS
         if self.arm_vehicle:
-            channels = channels_for_wrench(self.hold.wrench(x), self.vehicle.allocation)
+            channels = channels_for_wrench(
+                self.hold.wrench(x), self.vehicle.allocation, curve=self.vehicle.thruster_curve
+            )
             self._send_channels(channels)
         else:
             self._send_neutral()
         telemetry = self._telemetry()
-        thrust = thrust_from_channels(channels) if telemetry["armed"] else np.zeros(self.vehicle.n_thrusters)
+        armed = telemetry["armed"]
+        curve = self.vehicle.thruster_curve
+        thrust = thrust_from_channels(channels, curve) if armed else np.zeros(self.vehicle.n_thrusters)
         self._rec.held(t, x, channels=channels, telemetry=telemetry, series=camera_series, thrust=thrust)
 
     # -- safety checks --------------------------------------------------------------------

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..vehicle.thrusters import PWM_MAX_US, PWM_MIN_US, PWM_NEUTRAL_US, t200_force_to_pwm
+from ..vehicle.thrusters import PWM_MAX_US, PWM_MIN_US, PWM_NEUTRAL_US, T200, ThrusterCurve, t200_pwm_to_force
 
 __all__ = [
     "CHANNELS",
@@ -91,47 +91,25 @@ def motor_pwm(commands: np.ndarray) -> np.ndarray:
     return np.clip(PWM_NEUTRAL_US + PWM_PER_UNIT * m, PWM_MIN_US, PWM_MAX_US)
 
 
-_F_GRID = np.linspace(-60.0, 60.0, 24001)
-_PWM_GRID = t200_force_to_pwm(_F_GRID)
-# the two branches of the curve, cut once (each is monotonic in PWM)
-_FWD_PWM, _FWD_F = _PWM_GRID[_F_GRID > 0], _F_GRID[_F_GRID > 0]
-_REV_PWM, _REV_F = _PWM_GRID[_F_GRID < 0], _F_GRID[_F_GRID < 0]
-
-
-def t200_pwm_to_force(pwm_us: np.ndarray | float) -> np.ndarray:
-    """Force (N) of a T200 at 16 V for a PWM pulse width: the inverse of ``t200_force_to_pwm``.
-
-    Zero inside the dead band (about 1467.6..1534.1 us), saturating at -39.9 / +51.4 N.
-    Interpolated on a 5 mN grid of the fitted curve (parameters.md section 1).
-    """
-    p = np.asarray(pwm_us, dtype=float)
-    fwd = np.interp(p, _FWD_PWM, _FWD_F, left=0.0)
-    rev = np.interp(p, _REV_PWM, _REV_F, right=0.0)
-    return np.where(p > PWM_NEUTRAL_US, fwd, np.where(p < PWM_NEUTRAL_US, rev, 0.0))
-
-
-def thrust_from_channels(channels_us: np.ndarray) -> np.ndarray:
-    """Thruster forces u (8, N, along +e_i) that ArduSub produces from six override channels (us)."""
+def thrust_from_channels(channels_us: np.ndarray, curve: ThrusterCurve = T200) -> np.ndarray:
+    """Thruster forces u (8, N, along +e_i) that ArduSub produces from six override channels (us),
+    through the vehicle's thruster ``curve`` (default the T200's)."""
     c = (np.asarray(channels_us, dtype=float) - PWM_NEUTRAL_US) / PWM_PER_UNIT
     pwm = motor_pwm(mix(c))
-    return t200_pwm_to_force(2 * PWM_NEUTRAL_US - pwm)
+    return curve.force(2 * PWM_NEUTRAL_US - pwm)
 
 
 def _inputs_to_channels(c: np.ndarray) -> np.ndarray:
     return np.clip(np.rint(PWM_NEUTRAL_US + PWM_PER_UNIT * c), PWM_MIN_US, PWM_MAX_US)
 
 
-def _t200_slope(pwm_us: np.ndarray) -> np.ndarray:
-    """dF/dPWM (N/us) of the T200 curve; inside the dead band the slope at its edge (bridges it)."""
-    f = t200_pwm_to_force(pwm_us)
-    fwd = 11.9405 + 2 * -0.17247 * f + 3 * 0.00150 * f**2
-    rev = 15.4759 + 2 * 0.29830 * f + 3 * 0.00347 * f**2
-    dpwm_df = np.where(f > 0, fwd, np.where(f < 0, rev, np.where(pwm_us >= PWM_NEUTRAL_US, 11.9405, 15.4759)))
-    return 1.0 / dpwm_df
-
-
 def channels_for_wrench(
-    wrench: np.ndarray, B: np.ndarray, *, iterations: int = 40, tol_N: float = 1e-3
+    wrench: np.ndarray,
+    B: np.ndarray,
+    *,
+    curve: ThrusterCurve = T200,
+    iterations: int = 40,
+    tol_N: float = 1e-3,
 ) -> np.ndarray:
     """The six override channels (us, integers, CHANNELS order) that make ArduSub push ``wrench``.
 
@@ -144,7 +122,7 @@ def channels_for_wrench(
 
     Solves ``B u(c) = wrench`` for the six inputs c by damped Newton iterations, ``u(c)``
     being the mixer + PWM + T200 chain of :func:`thrust_from_channels` before the rounding
-    to whole microseconds.  The Jacobian ``B diag(-400 dT/dPWM) F`` uses the T200 slope at
+    to whole microseconds.  The Jacobian ``B diag(-400 dT/dPWM) F`` uses the curve's slope at
     the edge of the dead band inside it, so the iteration crosses the band instead of
     stalling in it.  A wrench the chain cannot produce (beyond the thrusters, or needing
     thrust inside a dead band) is met in the least-squares sense as far as the iteration gets;
@@ -156,7 +134,7 @@ def channels_for_wrench(
 
     def thrusts(c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         pwm = 2 * PWM_NEUTRAL_US - motor_pwm(mix(c))
-        return t200_pwm_to_force(pwm), pwm
+        return curve.force(pwm), pwm
 
     c = np.zeros(6)
     u, pwm = thrusts(c)
@@ -164,7 +142,7 @@ def channels_for_wrench(
     for _ in range(iterations):
         if np.max(np.abs(r)) < tol_N:
             break
-        J = B @ ((-PWM_PER_UNIT * _t200_slope(pwm))[:, None] * MOTOR_FACTORS)
+        J = B @ ((-PWM_PER_UNIT * curve.slope(pwm))[:, None] * MOTOR_FACTORS)
         step = np.linalg.lstsq(J, -r, rcond=None)[0]
         for _ in range(12):  # halve the step until the residual decreases
             c_new = np.clip(c + step, -1.0, 1.0)
@@ -181,6 +159,6 @@ def channels_for_wrench(
     return _inputs_to_channels(c)
 
 
-def channels_for_thrust(thrust_N: np.ndarray, B: np.ndarray) -> np.ndarray:
+def channels_for_thrust(thrust_N: np.ndarray, B: np.ndarray, curve: ThrusterCurve = T200) -> np.ndarray:
     """Override channels (us) for the wrench ``B u`` of eight thrusts (see channels_for_wrench)."""
-    return channels_for_wrench(B @ np.asarray(thrust_N, dtype=float), B)
+    return channels_for_wrench(B @ np.asarray(thrust_N, dtype=float), B, curve=curve)

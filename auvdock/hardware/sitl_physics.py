@@ -49,7 +49,7 @@ Protocol (ArduPilot ``libraries/SITL/SIM_JSON.cpp`` / ``SIM_JSON.h``)
   the order of :data:`auvdock.hardware.ardusub.MOTOR_FACTORS` and of the vehicle's
   allocation columns.  Motor PWM ``p`` (us; 0 -- no output -- is neutral 1500, others are
   clamped to 1100..1900) pushes thruster i along ``+e_i`` with
-  ``t200_pwm_to_force(2 * 1500 - p)`` N, the chain of
+  the vehicle's thruster curve at ``2 * 1500 - p`` (the T200's: ``t200_pwm_to_force``), the chain of
   :func:`auvdock.hardware.ardusub.thrust_from_channels` after the mixer.  Channels 9+ are
   ignored.
 * **Hold** (``hold_until_thrust=True``, default): until the motors first push (a motor
@@ -98,8 +98,7 @@ from ..geometry import wrap_angle
 from ..interrupts import SigintDeferred
 from ..mission import Mission, load_mission
 from ..vehicle.state import POS
-from ..vehicle.thrusters import PWM_MAX_US, PWM_MIN_US, PWM_NEUTRAL_US
-from .ardusub import t200_pwm_to_force
+from ..vehicle.thrusters import PWM_MAX_US, PWM_MIN_US, PWM_NEUTRAL_US, T200, ThrusterCurve
 from .plant import TruthPlant
 
 __all__ = [
@@ -170,15 +169,16 @@ def parse_servo_frame(data: bytes) -> ServoFrame | None:
     return ServoFrame(int(rate), int(count), pwm)
 
 
-def motor_thrust(pwm: np.ndarray) -> np.ndarray:
+def motor_thrust(pwm: np.ndarray, curve: ThrusterCurve = T200) -> np.ndarray:
     """Thrust of T1..T8 (8,), N along ``+e_i``, from servo channels 1..8 (us).
 
-    0 (no output) is neutral; other values are clamped to 1100..1900 us; then
-    ``t200_pwm_to_force(2 * 1500 - p)`` (the motor's positive command pushes along ``-e_i``).
+    0 (no output) is neutral; other values are clamped to 1100..1900 us; then the vehicle's
+    thruster ``curve`` at ``2 * 1500 - p`` (the motor's positive command pushes along ``-e_i``;
+    the T200's by default: ``t200_pwm_to_force``).
     """
     p = np.asarray(pwm, dtype=float)[:N_MOTORS]
     p = np.where(p == 0.0, PWM_NEUTRAL_US, np.clip(p, PWM_MIN_US, PWM_MAX_US))
-    return t200_pwm_to_force(2 * PWM_NEUTRAL_US - p)
+    return curve.force(2 * PWM_NEUTRAL_US - p)
 
 
 def _floats(v: np.ndarray) -> list[float]:
@@ -555,7 +555,7 @@ class SitlPhysics:
         t_prev = self._t
         self._k += 1
         self._t = self._t_base + self._k / rate
-        thrust = motor_thrust(frame.pwm)
+        thrust = motor_thrust(frame.pwm, self.vehicle.thruster_curve)
         self._motors_active = bool(np.any(thrust != 0.0))
         if self._hold != "free" and self._motors_active:
             self._hold = "free"

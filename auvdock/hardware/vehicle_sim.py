@@ -648,7 +648,8 @@ class VehicleSim:
         return NEUTRAL_CHANNELS.astype(float)
 
     def _update_thrust(self) -> None:
-        self._thrust = thrust_from_channels(self._channels_now()) if self._armed else np.zeros(8)
+        curve = self.vehicle.thruster_curve
+        self._thrust = thrust_from_channels(self._channels_now(), curve) if self._armed else np.zeros(8)
 
     # --- main loop ---------------------------------------------------------------------------
     def _run(self) -> None:

@@ -24,6 +24,7 @@ import numpy as np
 from .model import VehicleModel, rk4
 from .params import VehicleParams, VehicleParamsError, load_params, preset_names
 from .state import ETA, LIN, NX, POS
+from .thrusters import ThrusterCurve
 
 __all__ = ["Vehicle", "VehicleModel", "VehicleParams", "VehicleParamsError", "load_vehicle", "preset_names"]
 
@@ -44,6 +45,11 @@ class Vehicle:
     def allocation(self) -> np.ndarray:
         """Thruster allocation matrix B (6 x n): body wrench (N, N m) = B @ thrusts (N)."""
         return self.model.B
+
+    @property
+    def thruster_curve(self) -> ThrusterCurve:
+        """PWM (us) -> force (N) of each thruster (the T200's, or the parameter file's)."""
+        return self.params.thruster_curve
 
     @property
     def thrust_min(self) -> np.ndarray:

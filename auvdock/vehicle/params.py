@@ -16,6 +16,8 @@ from typing import Any
 import numpy as np
 import yaml
 
+from .thrusters import ThrusterCurve
+
 __all__ = ["VehicleParams", "VehicleParamsError", "preset_names", "load_params", "deep_merge"]
 
 _DATA = "auvdock.vehicle"
@@ -59,6 +61,7 @@ class VehicleParams:
     thruster_directions: np.ndarray
     thruster_voltage_V: int
     thrust_limits_N: np.ndarray
+    thruster_curve: ThrusterCurve = field(default_factory=ThrusterCurve)
     thruster_gain: float = 1.0
     raw: dict[str, Any] = field(repr=False, compare=False, default_factory=dict)
 
@@ -131,6 +134,23 @@ class VehicleParams:
                 f"thrusters.limits_N.{voltage}", f"must be [reverse < 0, forward > 0] (or {n} such pairs)"
             )
 
+        model = str(th.get("model", "T200"))
+        if model == "T200":
+            curve = ThrusterCurve()
+        elif model == "quadratic":
+            try:
+                mx = np.broadcast_to(np.asarray(th["max_N"], dtype=float), (n,))
+                band = float(th.get("deadband_us", 0.0))
+            except (KeyError, TypeError, ValueError):
+                raise VehicleParamsError(
+                    "thrusters.max_N", f"model quadratic needs max_N: a number or {n} numbers (N)"
+                ) from None
+            if np.any(mx <= 0) or not 0 <= band < 400:
+                raise VehicleParamsError("thrusters.max_N", "must be > 0 (and deadband_us in 0..400)")
+            curve = ThrusterCurve("quadratic", tuple(float(v) for v in mx), band)
+        else:
+            raise VehicleParamsError("thrusters.model", f"must be T200 or quadratic, got {model!r}")
+
         return cls(
             name=str(d.get("name", "custom")),
             description=str(d.get("description", "")),
@@ -147,6 +167,7 @@ class VehicleParams:
             thruster_directions=dirs,
             thruster_voltage_V=int(voltage),
             thrust_limits_N=lim,
+            thruster_curve=curve,
             thruster_gain=num("thruster_gain") if "thruster_gain" in d else 1.0,
             raw=copy.deepcopy(d),
         )
