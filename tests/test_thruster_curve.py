@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from auvdock.hardware.ardusub import channels_for_wrench, thrust_from_channels
+from auvdock.hardware.ardusub import MOTOR_FACTORS, channels_for_wrench, thrust_from_channels
 from auvdock.vehicle import load_vehicle
 from auvdock.vehicle.params import VehicleParamsError, load_params
 from auvdock.vehicle.thrusters import T200, ThrusterCurve, t200_force_to_pwm
@@ -25,6 +25,12 @@ SITL_FACTORS = np.array(
     ],
     dtype=float,
 )
+
+
+def test_sitls_table_is_ardusubs_mixer() -> None:
+    """SITL's thruster table (transcribed from SIM_Submarine.cpp) is ArduSub's VECTORED_6DOF mixer
+    (AP_Motors6DOF), column for column: the preset below is built on it."""
+    np.testing.assert_array_equal(SITL_FACTORS[:, [1, 0, 3, 2, 4, 5]], MOTOR_FACTORS)
 
 
 def test_quadratic_curve_is_sitls() -> None:
