@@ -263,6 +263,7 @@ class FlySession:
         self._battery: float | None = None  # low-passed voltage, V
         self._battery_stamp: int | None = None
         self._battery_reported = False  # a SYS_STATUS came (with or without a voltage)
+        self._battery_from_sys_status = False  # ... with a voltage (then BATTERY_STATUS is not used)
         self._t_armed: float | None = None
         self._next_rates = 0.0
         self._rate_refreshes = 0
@@ -448,8 +449,9 @@ class FlySession:
             if msg.voltage_battery in (0, 65535):  # no battery monitor (ArduPilot's BATT_MONITOR 0)
                 return
             v = msg.voltage_battery / 1000.0
+            self._battery_from_sys_status = True
         else:
-            if self._battery_stamp is not None and "SYS_STATUS" in self.telemetry._latest:
+            if self._battery_from_sys_status:
                 return  # SYS_STATUS first
             cells = [c for c in msg.voltages if c not in (0, 65535)]
             if not cells:
@@ -835,17 +837,14 @@ class FlySession:
             return
         armed, mode = self._vehicle_mode()
         if not armed:
-            why = (
-                f" (the vehicle said: {self.events_text_since_arming()})"
-                if self.events_text_since_arming()
-                else ""
-            )
+            said = self._vehicle_text_since_arming()
+            why = f" (the vehicle said: {said})" if said else ""
             raise FlyTakeoverError(f"the vehicle was disarmed, not by fly{why}")
         if mode != MODES["MANUAL"]:
             name = next((k for k, v in MODES.items() if v == mode), f"mode {mode}")
             raise FlyTakeoverError(f"the vehicle changed to {name}, not by fly")
 
-    def events_text_since_arming(self) -> str:
+    def _vehicle_text_since_arming(self) -> str:
         """The vehicle's latest STATUSTEXT since arming ("" if none)."""
         for _, text in reversed(self.events):
             if text == "armed":
