@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -80,3 +81,16 @@ def test_no_compiler_runs_uncompiled_with_a_warning(cache, monkeypatch) -> None:
         c = build_controller(m.with_controller("oracle").controller, v, d)
     assert c.mpc.build == "uncompiled"
     assert np.all(np.isfinite(_first_move(c, m)))
+
+
+def test_compile_notice_is_plain_lines_when_redirected(capsys) -> None:
+    """With stderr not a terminal (a log file, a pipe) the compile notice is one plain line before
+    and one after (a spinner would print nothing there: a minute of silence in a log)."""
+    from auvdock.cli.app import _compile_notice
+
+    with _compile_notice("compiling the mpc solver once (cached in /tmp/x)"):
+        pass
+    err = capsys.readouterr().err.splitlines()
+    assert err[0] == "compiling the mpc solver once (cached in /tmp/x) - about a minute, once"
+    assert re.fullmatch(r"compiled in \d+ s", err[1])
+    assert len(err) == 2

@@ -7,6 +7,8 @@ file, the field and the problem, and no traceback.
 
 from __future__ import annotations
 
+import contextlib
+import time
 from pathlib import Path
 
 import typer
@@ -109,5 +111,21 @@ def check_controller(spec: str, option: str = "--controller") -> str:
 
 
 def _compile_notice(message: str):
-    """Shown while a solver compiles (first use of a problem)."""
-    return err_console.status(f"[bold]{message}[/bold] - about a minute, once", spinner="dots")
+    """Shown while a solver compiles (first use of a problem): a spinner on a terminal; with
+    stderr redirected (a log file, a pipe) one plain line before and one after, with the time
+    taken, so that a log never shows a minute of silence."""
+    if err_console.is_terminal:
+        return err_console.status(f"[bold]{message}[/bold] - about a minute, once", spinner="dots")
+    return _plain_notice(message)
+
+
+@contextlib.contextmanager
+def _plain_notice(message: str):
+    t0 = time.monotonic()
+    err_console.print(f"{message} - about a minute, once", markup=False, highlight=False, soft_wrap=True)
+    try:
+        yield
+    finally:
+        err_console.print(
+            f"compiled in {time.monotonic() - t0:.0f} s", markup=False, highlight=False, soft_wrap=True
+        )
