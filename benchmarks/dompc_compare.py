@@ -60,8 +60,10 @@ thrust limits, ``v_rel_max`` and ``w_max``.
 
 What differs (not removed)
 --------------------------
-* Solver: auvdock's default ("auto") for Oracle MPC is CasADi's ``sqpmethod`` with the qrqp
-  QP solver and a Gauss-Newton Hessian, compiled to C and cached (``--solver ipopt`` gives
+* Solver: auvdock's default ("auto") for Oracle MPC is ``rti`` (one QP per control step,
+  real-time iteration, CasADi's qrqp on a Gauss-Newton Hessian; ``auvdock.controllers.registry.
+  resolve_solver``), its QP data compiled to C and cached; ``--solver sqp`` iterates the same QPs
+  to convergence (CasADi's ``sqpmethod``) (``--solver ipopt`` gives
   auvdock's IPOPT, also compiled, Gauss-Newton Hessian, tuned warm start).  do-mpc uses IPOPT
   (MUMPS) with the exact Hessian through CasADi's SX virtual machine, not compiled; its
   ``compile_nlp`` is not used (experimental; it writes into the working directory).  Both get
@@ -429,7 +431,8 @@ def main(argv: list[str] | None = None) -> int:
     ap_ = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap_.add_argument("--case", type=int, default=2, help="paper case 1..6 (default 2)")
     ap_.add_argument("--timeout", type=float, default=None, help="simulated seconds (default: the mission's)")
-    ap_.add_argument("--solver", default="auto", choices=("auto", "sqp", "ipopt"), help="auvdock's solver")
+    solvers = ("auto", "rti", "sqp", "ipopt")
+    ap_.add_argument("--solver", default="auto", choices=solvers, help="auvdock's solver")
     ap_.add_argument(
         "--vrel-constraint",
         default="box",

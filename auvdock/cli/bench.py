@@ -20,7 +20,8 @@ def bench(
         None,
         "--solvers",
         "-s",
-        help="Solvers: auto, sqp, ipopt; comma-separated or repeated (default: auto).",
+        help="Solvers: auto (rti for all but Sequential FSE-MPC, which takes sqp), rti, sqp, ipopt; "
+        "comma-separated or repeated (default: auto).",
     ),
     timeout: float | None = typer.Option(None, "--timeout", min=0.0, help="Simulated-time limit per run, s."),
     json_out: bool = typer.Option(False, "--json", help="One JSON object per run on stdout, nothing else."),
