@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from . import timing
 from .controllers import Controller, ControlOutput, Measurement, build_controller, resolve_solver
 from .controllers.registry import CONTROLLERS
 from .controllers.settings import MPCSettings
@@ -105,15 +106,18 @@ class Autopilot:
     def step(self, meas: Measurement) -> ControlOutput:
         """One control step: estimate, solve, and return the thrust to hold for one period."""
         t0 = time.perf_counter()
+        timing.begin()
         recorded: dict[str, np.ndarray] = {}
         if self.navigation is not None:
-            meas, recorded = self.navigation.step(meas, self.u_applied)
+            with timing.part("estimation"):
+                meas, recorded = self.navigation.step(meas, self.u_applied)
             if self.navigation.settling(meas.t):  # no control on a filter that has not settled
                 nan = {k: np.full(s, np.nan) for k, s in self.extra_series.items() if k not in recorded}
                 out = ControlOutput(
                     np.zeros(self.vehicle.n_thrusters), STATUS_SETTLING, series={**nan, **recorded}
                 )
                 out.solve_time_s = time.perf_counter() - t0
+                out.time_parts = timing.end()
                 self.u_prev = out.thrust.copy()
                 self.u_applied = out.thrust.copy()
                 return out
@@ -122,6 +126,7 @@ class Autopilot:
         out = self.controller.step(meas, self.u_prev)
         out.series.update(recorded)
         out.solve_time_s = time.perf_counter() - t0
+        out.time_parts = timing.end()
         self.u_prev = out.thrust.copy()
         self.u_applied = out.thrust.copy()
         return out

@@ -23,6 +23,18 @@ __all__ = ["PAPER_MISSIONS", "DEFAULT_CASES", "machine_line", "default_missions_
 DEFAULT_CASES = (1, 2, 6)
 
 
+def _parts_median_ms(parts_s: dict[str, np.ndarray], total_ms: np.ndarray) -> dict[str, float]:
+    """Median ms per part of the step (:mod:`auvdock.timing`), in print order, and ``python``:
+    the median of what the parts leave of each step's wall time."""
+    from .timing import PARTS
+
+    order = [p for p in PARTS if p in parts_s] + sorted(set(parts_s) - set(PARTS))
+    out = {p: float(np.median(parts_s[p])) * 1e3 for p in order}
+    timed = np.sum([parts_s[p] for p in order], axis=0) * 1e3 if order else np.zeros_like(total_ms)
+    out["python"] = float(np.median(total_ms - timed)) if len(total_ms) else float("nan")
+    return out
+
+
 def default_missions_dir() -> Path:
     """The shipped missions folder (:func:`auvdock.catalog.missions_dir`)."""
     return missions_dir()
@@ -81,6 +93,7 @@ def bench_rows(
                     "setup_time_s": float(o.get("setup_time_s", float("nan"))),
                     "solver_failures": int(o["solver_failures"]),
                     "steps": int(len(ms)),
+                    "parts_median_ms": _parts_median_ms(s.time_parts_s, ms),
                 }
                 rows.append(row)
                 if on_row is not None:

@@ -61,6 +61,9 @@ class RunSummary:
     outcome: dict[str, Any]
     path: Path | None = None
     solve_times_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    #: Where each step's time went (:mod:`auvdock.timing`): part name -> (steps,) s, zero
+    #: where a step had no such part.
+    time_parts_s: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def docked(self) -> bool:
@@ -209,6 +212,7 @@ def simulate(
     states: list[np.ndarray] = []
     distances: list[float] = []
     solve_times: list[float] = []
+    time_parts: list[dict[str, float]] = []
     statuses: list[int] = []
     flow_errors: list[float] = []
     docked = False
@@ -264,6 +268,7 @@ def simulate(
             states.append(x.copy())
             distances.append(dist)
             solve_times.append(out_k.solve_time_s)
+            time_parts.append(out_k.time_parts)
             statuses.append(out_k.status)
             if writer is not None:
                 writer.append(
@@ -330,4 +335,6 @@ def simulate(
         finally:
             path = Path(writer.filename)
             writer.close()
-    return RunSummary(mission.name, ap.name, outcome, path, np.asarray(solve_times))
+    names = sorted({name for parts in time_parts for name in parts})
+    parts_s = {name: np.array([parts.get(name, 0.0) for parts in time_parts]) for name in names}
+    return RunSummary(mission.name, ap.name, outcome, path, np.asarray(solve_times), parts_s)

@@ -23,6 +23,12 @@ def test_bench_json_rows() -> None:
         assert r["docked"] is False and r["time_to_dock_s"] is None  # 1 s is too short
         assert r["steps"] == 20
         assert 0 < r["median_ms"] <= r["p95_ms"] <= r["p99_ms"] <= r["max_ms"]
+        # where the time goes (rti: its QP data and its QP; the rest Python), each part at most
+        # the step, the medians of the parts and of the rest within the step's median
+        parts = r["parts_median_ms"]
+        assert list(parts) == ["qp data", "qp", "python"]
+        assert all(0 < v <= r["max_ms"] for v in parts.values())
+        assert sum(parts.values()) <= 1.5 * r["median_ms"]
 
 
 def test_bench_table() -> None:
@@ -32,6 +38,18 @@ def test_bench_table() -> None:
     assert res.exit_code == 0, res.output
     assert "bench on " in res.output and "CasADi" in res.output
     assert "median" in res.output
+    assert "where a step's time goes" in res.output
+
+
+def test_bench_parts_of_an_fse_step() -> None:
+    """Sequential FSE-MPC on sqp: the flow filter, the perception law, the NLP's function
+    evaluations and its solver, and Python."""
+    from auvdock.bench import bench_rows
+
+    (row,) = bench_rows([2], ["sequential"], ["auto"], timeout_s=0.5)
+    want = ["flow filter", "perception", "nlp functions", "nlp solver", "python"]
+    assert list(row["parts_median_ms"]) == want
+    assert row["parts_median_ms"]["nlp solver"] > 0
 
 
 def test_bench_bad_input() -> None:

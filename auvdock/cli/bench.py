@@ -26,11 +26,14 @@ def bench(
     timeout: float | None = typer.Option(None, "--timeout", min=0.0, help="Simulated-time limit per run, s."),
     json_out: bool = typer.Option(False, "--json", help="One JSON object per run on stdout, nothing else."),
 ) -> None:
-    """Per-step solve time (median, p95, p99, max), real-time factor and outcome per controller x solver."""
+    """Per-step solve time (median, p95, p99, max), real-time factor and outcome per controller x
+    solver, and where each step's time goes (estimation, flow filter, QP data and QP, or the
+    NLP's function evaluations and solver, Python)."""
     import json
 
     from ..bench import DEFAULT_CASES, bench_rows, machine_line
     from ..mission import SOLVER_NAMES
+    from ..timing import PARTS
 
     ctrls = controller_list(controllers)
     solv = split_list(solvers) or ["auto"]
@@ -68,5 +71,17 @@ def bench(
             f"{r['real_time_factor']:.1f}", str(r["solver_failures"]),
         )  # fmt: skip
 
-    bench_rows(case_list, ctrls, solv, timeout_s=timeout, on_row=add)
+    rows = bench_rows(case_list, ctrls, solv, timeout_s=timeout, on_row=add)
     console.print(t)
+    # where a step's time goes: the median of each part and of what they leave (Python)
+    seen = {p for r in rows for p in r["parts_median_ms"]} - {"python"}
+    names = [n for n in PARTS if n in seen] + sorted(seen - set(PARTS))
+    parts = Table(title="where a step's time goes: median ms per part (auvdock.timing)")
+    for h in ("case", "controller", "solver", *names, "python", "step"):
+        parts.add_column(h, justify="left" if h in ("controller", "solver") else "right")
+    for r in rows:
+        pm = r["parts_median_ms"]
+        cells = [f"{pm[n]:.2f}" if n in pm else "-" for n in names]
+        parts.add_row(str(r["case"]), r["controller"], r["solver"], *cells, f"{pm['python']:.2f}",
+                      f"{r['median_ms']:.2f}")  # fmt: skip
+    console.print(parts)

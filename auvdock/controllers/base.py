@@ -66,6 +66,9 @@ class ControlOutput:
     series : dict
         Extra per-step values to record (name -> array), as the controller's
         ``extra_series`` declares them.
+    time_parts : dict
+        Where the step's wall time went, s, by part (:mod:`auvdock.timing`; set by the
+        Autopilot): the rest of ``solve_time_s`` is Python.
     info : dict
         Anything else a controller wants to report about the step (not recorded).
     """
@@ -76,6 +79,7 @@ class ControlOutput:
     plan: Plan | None = None
     series: dict[str, np.ndarray] = field(default_factory=dict)
     info: dict[str, Any] = field(default_factory=dict)
+    time_parts: dict[str, float] = field(default_factory=dict)
 
 
 class Controller(Protocol):

@@ -50,6 +50,7 @@ import casadi as ca
 import numpy as np
 from pydantic import Field
 
+from .. import timing
 from ..codegen import compiled_function, compiled_nlpsol
 from ..dock import HeaveDock
 from ..estimator import EstimatorSettings, FlowEstimator, gramian_step, information_lower_bound
@@ -339,14 +340,16 @@ class FSEMPC:
             [np.asarray(s["relative_velocity_m_s"], dtype=float), np.asarray(s["gyro_rad_s"], dtype=float)]
         )
         depth_rate = s.get("depth_rate_m_s")
-        est = self.estimator.step(
-            eta, nu_r, s.get("accel_m_s2"), None if depth_rate is None else float(depth_rate), u_prev
-        )
+        with timing.part("flow filter"):
+            est = self.estimator.step(
+                eta, nu_r, s.get("accel_m_s2"), None if depth_rate is None else float(depth_rate), u_prev
+            )
         tau = np.zeros(6)
         t0 = time.perf_counter()
         # the estimator's state is [eta; nu_r + f; nu_2] (ETA, LIN, ANG)
         if self.law is not None:
-            tau, u_off, _ = self.law.solve(est.state, est.flow_ned, self.estimator.gramian())
+            with timing.part("perception"):
+                tau, u_off, _ = self.law.solve(est.state, est.flow_ned, self.estimator.gramian())
             if self.variant == "paper":  # the MPC plans without the perception input it is given
                 r = self.mpc.solve(meas.t, est.state, u_prev, est.flow_ned)
                 thrust = np.clip(r.thrust + u_off, self.vehicle.thrust_min, self.vehicle.thrust_max)

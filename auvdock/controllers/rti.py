@@ -29,6 +29,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
+from .. import timing
 from ..codegen import compiled_function
 
 __all__ = ["RealTimeIteration", "QRQP_OPTIONS", "COLD_START_MAX_ITER"]
@@ -75,9 +76,11 @@ class RealTimeIteration:
         Returns ``(w_new, success, return_status, model cost, step infinity norm)``; the
         model cost is the QP's prediction ``f(w_bar) + q(dw)`` of the objective at ``w_new``.
         """
-        H, grad, A, gval, f0 = self._data(w_bar, p)
+        with timing.part("qp data"):
+            H, grad, A, gval, f0 = self._data(w_bar, p)
         gv = np.asarray(gval).ravel()
-        sol = self._qp(h=H, g=grad, a=A, lba=lbg - gv, uba=ubg - gv, lbx=lbx - w_bar, ubx=ubx - w_bar)
+        with timing.part("qp"):
+            sol = self._qp(h=H, g=grad, a=A, lba=lbg - gv, uba=ubg - gv, lbx=lbx - w_bar, ubx=ubx - w_bar)
         stats = self._qp.stats()
         dw = np.asarray(sol["x"]).ravel()
         cost = float(f0) + float(sol["cost"])
