@@ -32,11 +32,11 @@ NAMES = "x y z roll pitch yaw u v w p q r vc_n vc_e ba_x ba_y ba_z bg_x bg_y bg_
 
 def _figures(title: str, t: np.ndarray, nees: np.ndarray, normed: np.ndarray, nz: int) -> None:
     """Print the ensemble NEES against its bounds, the per-seed spread and the per-state ratios."""
-    from scipy.stats import chi2
+    from auvdock.estimator import chi2_quantile
 
     n = nees.shape[0]
     avg = nees.mean(axis=0)
-    lo, hi = chi2.ppf([0.025, 0.975], n * nz) / n
+    lo, hi = (chi2_quantile(p, n * nz) / n for p in (0.025, 0.975))
     inside = (avg >= lo) & (avg <= hi)
     per_seed = nees.mean(axis=1)
     print(f"\n{title}")
