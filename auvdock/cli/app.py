@@ -52,6 +52,18 @@ def fail_input(message: str) -> None:
     raise typer.Exit(code=2)
 
 
+def output_dir(path: Path, option: str = "--out") -> Path:
+    """``path`` as an output directory, created if need be; or exit 2 with one line naming the
+    option, the path and the problem (a file is there, no permission, a read-only place)."""
+    if path.exists() and not path.is_dir():
+        fail_input(f"{option} {path}: exists and is not a directory")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        fail_input(f"{option} {path}: cannot create the directory ({e.strerror or e})")
+    return path
+
+
 def load_or_exit(path: Path) -> Mission:
     """Load a mission file, or a shipped mission by name (``gyre``), or exit 2 with one line."""
     from ..catalog import resolve

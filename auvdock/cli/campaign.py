@@ -16,7 +16,7 @@ import typer
 from rich.table import Table
 
 from ..mission import MissionError
-from .app import app, console, controller_list, exit_interrupted, fail_input
+from .app import app, console, controller_list, exit_interrupted, fail_input, output_dir
 
 
 def _interrupted(path: Path) -> None:
@@ -161,7 +161,7 @@ def compare(
     except (MissionError, ValueError) as e:
         fail_input(str(e))
         raise AssertionError("unreachable") from None
-    path = out / "campaign.h5"
+    path = output_dir(out) / "campaign.h5"
     try:
         check_output(path, "compare", resume=resume, force=force)
     except ResultsFileError as e:
@@ -228,7 +228,7 @@ def report(
     except ValueError as e:
         fail_input(str(e))
         raise AssertionError("unreachable") from None
-    out_dir = out if out is not None else results.parent
+    out_dir = output_dir(out if out is not None else results.parent)
     if attrs.get("kind") == "sweep":
         _sweep_outputs(results, out_dir, f"sweep {attrs.get('sweep_name', '')}: success per controller")
         return
@@ -265,7 +265,7 @@ def sweep(
     except (SweepError, MissionError) as e:
         fail_input(str(e))
         raise AssertionError("unreachable") from None
-    out_dir = out if out is not None else Path("runs") / "sweeps" / str(s.name)
+    out_dir = output_dir(out if out is not None else Path("runs") / "sweeps" / str(s.name))
     path = out_dir / RESULTS_NAME
     try:
         check_output(path, "sweep", resume=resume, force=force)

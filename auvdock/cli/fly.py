@@ -16,7 +16,16 @@ from rich.markup import escape
 
 from ..clock import Clock, wall_clock
 from ..mission import MissionError
-from .app import app, check_controller, console, err_console, exit_interrupted, fail_input, load_or_exit
+from .app import (
+    app,
+    check_controller,
+    console,
+    err_console,
+    exit_interrupted,
+    fail_input,
+    load_or_exit,
+    output_dir,
+)
 
 #: The clock ``fly`` and ``vehicle-sim`` wait and pace on.
 clock: Clock = wall_clock
@@ -73,8 +82,7 @@ def fly(
         connection_string(port)
     except ValueError as e:
         fail_input(f"--port {port}: {e}")
-    out_dir = out if out is not None else Path(m.output.dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    out_dir = output_dir(out if out is not None else Path(m.output.dir))
     stamp = time.strftime("%Y%m%d-%H%M%S")
     name = controller or m.controller.type
     h5 = out_dir / f"{m.name}_{name}_fly_{stamp}.h5"

@@ -13,7 +13,16 @@ from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeEl
 from rich.table import Table
 
 from ..mission import MissionError
-from .app import app, check_controller, console, err_console, exit_interrupted, fail_input, load_or_exit
+from .app import (
+    app,
+    check_controller,
+    console,
+    err_console,
+    exit_interrupted,
+    fail_input,
+    load_or_exit,
+    output_dir,
+)
 
 if TYPE_CHECKING:
     from ..simulation import Progress as SimProgress
@@ -113,8 +122,7 @@ def sim(
             fail_input(f"--variant: must be paper or robust (got {variant!r})")
         m = m.with_updates(**{"controller.variant": variant})
     name = m.controller.type + ("_paper" if m.controller.variant == "paper" else "")
-    out_dir = out if out is not None else Path(m.output.dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    out_dir = output_dir(out if out is not None else Path(m.output.dir))
     h5 = out_dir / f"{m.name}_{name}.h5"
     limit = m.docking.timeout_s if timeout is None else timeout
 
@@ -191,8 +199,7 @@ def plot(
         flow = parse_mission(yaml.safe_load(r.mission_yaml), f"{results}:mission_yaml").build_flow()
     except (MissionError, yaml.YAMLError):
         err_console.print("note: the stored mission could not be read; drawing the recorded flow instead")
-    out_dir = out if out is not None else results.parent
-    out_dir.mkdir(parents=True, exist_ok=True)
+    out_dir = output_dir(out if out is not None else results.parent)
     paths = plot_run(r, out_dir, prefix=f"{results.stem}_", flow_field=flow)
     for p in paths:
         console.print(str(p))
