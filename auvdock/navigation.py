@@ -361,14 +361,14 @@ class NavigationFilter:
             self._mbuf.set_res(i, memoryview(a))
         # per tuple of reading kinds: its rows of the stacked measurement, which are angles,
         # and, if any is curved (its second-order covariance is not zero), their block's index
-        self._rows: dict[tuple[str, ...], tuple[np.ndarray, np.ndarray, Any]] = {}
+        self._rows: dict[tuple[str, ...], tuple[np.ndarray, np.ndarray, Any, Any]] = {}
         self._rotation = vehicle.model.function("rotation")
         #: Updates dropped because they would have made the estimate non-finite.
         self.rejected_updates = 0
         #: Readings left out as implausible (:data:`READING_GATE`), by kind.
         self.gated: dict[str, int] = {}
         self._gated_run: dict[str, int] = {}
-        self._gate = {k: chi2_quantile(READING_GATE, measurements.KINDS[k]) for k in GATED_KINDS}
+        self._gate_d2 = {k: chi2_quantile(READING_GATE, measurements.KINDS[k]) for k in GATED_KINDS}
         self.z = np.zeros(NZ)
         self.P = np.eye(NZ)
         self.t: float | None = None
@@ -469,9 +469,8 @@ class NavigationFilter:
             self.rejected_updates += 1
         nis = 0.0
         n_meas = 0
-        if readings:
-            readings = self._plausible(readings, float(t))
-        if readings:
+        gate = True
+        while readings:
             key = tuple(r.kind for r in readings)
             cached = self._rows.get(key)
             if cached is None:
@@ -480,8 +479,11 @@ class NavigationFilter:
                 )
                 ang = np.flatnonzero(np.isin(rows, _ANGLE_ROWS))
                 curved = np.ix_(rows, rows) if np.isin(rows, _CURVED_ROWS).any() else None
-                cached = self._rows[key] = (rows, ang, curved)
-            rows, ang, curved = cached
+                sizes = [measurements.KINDS[k] for k in key]
+                blocks = list(zip(np.cumsum([0, *sizes[:-1]]).tolist(), sizes, strict=True))
+                gated_kinds = any(k in GATED_KINDS for k in key)
+                cached = self._rows[key] = (rows, ang, curved, blocks if gated_kinds else None)
+            rows, ang, curved, gate_blocks = cached
             values = np.concatenate([self._aged(r, float(t)) for r in readings])
             var = np.concatenate(
                 [
@@ -497,50 +499,59 @@ class NavigationFilter:
                 self._c_in_P[:] = self.P
                 self._ceval()
                 R_extra = self._c_out[curved]
+            blocks = gate_blocks if gate else None
             try:
-                nis, n_meas = self._update(rows, values, var, ang, R_extra)
+                nis, n_meas, drop = self._update(rows, values, var, ang, R_extra, readings, blocks)
             except np.linalg.LinAlgError:
                 self.z, self.P = good_z, good_P
-                nis, n_meas = math.inf, 0
+                nis, n_meas, drop = math.inf, 0, set()
+            if drop:  # implausible readings: the update again without them (the gate once)
+                readings = [r for i, r in enumerate(readings) if i not in drop]
+                gate = False
+                nis, n_meas = 0.0, 0
+                continue
             if not (np.all(np.isfinite(self.z)) and np.all(np.isfinite(self.P))):
                 # never hand on a non-finite estimate: keep the predicted one, and count it
                 self.z, self.P = good_z, good_P
                 self.rejected_updates += 1
                 nis, n_meas = math.inf, 0
+            break
         self.z[YAW] = (self.z[YAW] + math.pi) % (2 * math.pi) - math.pi
         return nis, n_meas
 
-    def _plausible(self, readings: list[Reading], t: float) -> list[Reading]:
-        """The readings whose innovation, each on its own, is within :data:`READING_GATE` at the
-        prediction (``_out_y``, ``_out_Ht``); the others are counted in :attr:`gated`."""
-        P, y, Ht = self.P, self._out_y, self._out_Ht
-        keep = []
-        for r in readings:
-            if r.kind not in GATED_KINDS:
-                keep.append(r)
+    def _gate(
+        self,
+        readings: list[Reading],
+        blocks: list[tuple[int, int]],
+        r: np.ndarray,
+        S: np.ndarray,
+        var: np.ndarray,
+    ) -> set[int]:
+        """Indices of the readings whose innovation, each on its own (its block of the stacked
+        innovation ``r`` and covariance ``S``), lies beyond :data:`READING_GATE`: left out and
+        counted in :attr:`gated`, at most :data:`GATE_MAX_IN_A_ROW` in a row per kind."""
+        drop: set[int] = set()
+        for i, (reading, (i0, n)) in enumerate(zip(readings, blocks, strict=True)):
+            if reading.kind not in GATED_KINDS:
                 continue
-            n = measurements.KINDS[r.kind]
-            rows = slice(_OFFSETS[r.kind], _OFFSETS[r.kind] + n)
-            H = Ht[:, rows].T
-            res = self._aged(r, t) - y[rows]
-            ang = measurements.ANGLE_ROWS.get(r.kind, ())
-            for i in ang:
-                res[i] = (res[i] + math.pi) % (2 * math.pi) - math.pi
-            std = np.broadcast_to(np.asarray(r.std, dtype=float), (n,))
-            S = H @ P @ H.T
-            S[np.diag_indices_from(S)] += std * std
+            rb, Sb = r[i0 : i0 + n], S[i0 : i0 + n, i0 : i0 + n]
+            # S >= diag(var) (H P H^T and the curvature term are positive semidefinite), so
+            # |r|^2 / min(var) bounds the distance: most readings pass without a solve
+            if float(rb @ rb) <= self._gate_d2[reading.kind] * float(var[i0 : i0 + n].min()):
+                self._gated_run[reading.kind] = 0
+                continue
             try:
-                d2 = float(res @ np.linalg.solve(S, res))
-            except np.linalg.LinAlgError:
+                d2 = float(rb[0] * rb[0] / Sb[0, 0]) if n == 1 else float(rb @ np.linalg.solve(Sb, rb))
+            except (np.linalg.LinAlgError, ZeroDivisionError):
                 d2 = math.inf
-            run = self._gated_run.get(r.kind, 0)
-            if d2 <= self._gate[r.kind] or run >= GATE_MAX_IN_A_ROW:
-                keep.append(r)
-                self._gated_run[r.kind] = 0
+            run = self._gated_run.get(reading.kind, 0)
+            if d2 <= self._gate_d2[reading.kind] or run >= GATE_MAX_IN_A_ROW:
+                self._gated_run[reading.kind] = 0
             else:
-                self.gated[r.kind] = self.gated.get(r.kind, 0) + 1
-                self._gated_run[r.kind] = run + 1
-        return keep
+                drop.add(i)
+                self.gated[reading.kind] = self.gated.get(reading.kind, 0) + 1
+                self._gated_run[reading.kind] = run + 1
+        return drop
 
     def _aged(self, r: Reading, t: float) -> np.ndarray:
         """The reading's value carried from its sample time to ``t`` along the estimated motion.
@@ -564,7 +575,9 @@ class NavigationFilter:
         var: np.ndarray,
         ang: np.ndarray | None = None,
         R_extra: np.ndarray | None = None,
-    ) -> tuple[float, int]:
+        readings: list[Reading] | None = None,
+        blocks: list[tuple[int, int]] | None = None,
+    ) -> tuple[float, int, set[int]]:
         """Iterated EKF update (Gauss-Newton on the measurement model; Bell and Cathey 1993).
 
         The first iteration is the EKF update at the prediction.  The measurement model is then
@@ -577,6 +590,10 @@ class NavigationFilter:
         innovation look probable, and one linear step from zero relative velocity, where
         the drag's slope is the small linear damping, put the first estimate 3.6 m/s off the
         current -- converged, the same update is 0.2 m/s off.)
+
+        With ``blocks`` (each reading's first row and row count), the first iteration's
+        innovation and covariance also gate the readings (:meth:`_gate`); if any is left out
+        the estimate is not changed and the third value names them.
         """
         z_pred, P = self.z.copy(), self.P
         y, Ht = self._out_y, self._out_Ht
@@ -595,6 +612,10 @@ class NavigationFilter:
             S[np.diag_indices_from(S)] += var
             if R_extra is not None:
                 S += R_extra
+            if it == 0 and blocks is not None:
+                drop = self._gate(readings, blocks, r, S, var)
+                if drop:
+                    return math.inf, 0, drop
             Sinv_r = np.linalg.solve(S, np.column_stack([r, PHt.T]))
             K = Sinv_r[:, 1:].T  # P H^T S^-1 (S symmetric)
             if it == 0:
@@ -615,4 +636,4 @@ class NavigationFilter:
         A = np.eye(NZ) - K @ H
         R = np.diag(var) if R_extra is None else np.diag(var) + R_extra
         self.P = A @ P @ A.T + K @ R @ K.T
-        return nis, len(rows)
+        return nis, len(rows), set()

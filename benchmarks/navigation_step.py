@@ -58,7 +58,7 @@ def main() -> None:
         a = pc()
         nav._evaluate(dt)
         t_pred.append(pc() - a)
-    rows, ang, _ = nav._rows[tuple(r.kind for r in steps[1])]
+    rows, ang, _, _ = nav._rows[tuple(r.kind for r in steps[1])]
     vals = np.concatenate([r.value for r in steps[1]])
     var = np.concatenate([r.std for r in steps[1]]) ** 2
     P0, z0 = nav.P.copy(), nav.z.copy()

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers.loopback import free_udp_pair
 from typer.testing import CliRunner
 
 from auvdock.cli import app
@@ -493,20 +494,6 @@ def test_cli_ctrl_c_is_one_summary_line_and_exit_130() -> None:
 # --- (g) the camera through the real video path ---------------------------------------------------
 
 
-def _free_udp_pair() -> int:
-    for _ in range(100):
-        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as a:
-            a.bind(("0.0.0.0", 0))
-            p = a.getsockname()[1]
-            if p % 2 or p > 65000:
-                continue
-            with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as b:
-                try:
-                    b.bind(("0.0.0.0", p + 1))
-                except OSError:
-                    continue
-            return p
-    raise RuntimeError("no free UDP port pair")
 
 
 def test_camera_streams_the_true_view_over_rtp_and_the_markers_are_found(serve) -> None:
@@ -532,7 +519,7 @@ def test_camera_streams_the_true_view_over_rtp_and_the_markers_are_found(serve) 
     _, t_cd_true = camera_from_dock(
         eta, dock.position(t) + np.array(m.camera.synthetic.dock_offset_m), dock.heading_rad, mount
     )
-    port = _free_udp_pair()
+    port = free_udp_pair()
     received = []
     with open_source(f"udp:{port}") as source:
         stream = TruthCameraStream.from_mission(m, physics.pose, "127.0.0.1", port).start()

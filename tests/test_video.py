@@ -25,6 +25,8 @@ import pytest
 
 av = pytest.importorskip("av")
 
+from helpers.loopback import free_udp_pair  # noqa: E402
+
 from auvdock.camera import video  # noqa: E402
 from auvdock.camera.layout import default_layout  # noqa: E402
 from auvdock.camera.model import R_BC_DEFAULT, CameraModel  # noqa: E402
@@ -84,21 +86,6 @@ def _mad(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.mean(np.abs(a.astype(np.int16) - b.astype(np.int16))))
 
 
-def _free_udp_pair() -> int:
-    """An even UDP port p with p and p + 1 (RTCP) free on this host."""
-    for _ in range(100):
-        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as a:
-            a.bind(("0.0.0.0", 0))
-            p = a.getsockname()[1]
-            if p % 2 or p > 65000:
-                continue
-            with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as b:
-                try:
-                    b.bind(("0.0.0.0", p + 1))
-                except OSError:
-                    continue
-            return p
-    raise RuntimeError("no free UDP port pair")
 
 
 def _read_all(source: FrameSource, timeout_s: float = 1.0) -> list[Frame]:
@@ -196,7 +183,7 @@ def test_image_folder(tmp_path: Path) -> None:
 
 
 def test_rtp_loopback_receives_decodes_and_keeps_content() -> None:
-    port = _free_udp_pair()
+    port = free_udp_pair()
     fps = 30.0
     sent_frames = _approach(60)
     sent_t: dict[int, float] = {}
@@ -293,7 +280,7 @@ def test_stream_rtp_wire_format_is_blueos_like() -> None:
 
 
 def test_rtp_source_without_sender_times_out_and_closes_quickly() -> None:
-    port = _free_udp_pair()
+    port = free_udp_pair()
     source = open_source(f"rtp://127.0.0.1:{port}")
     assert source.read(0.2) is None
     source.close()  # returns (its thread polls for close every 0.1 s)
@@ -304,7 +291,7 @@ def test_rtp_source_without_sender_times_out_and_closes_quickly() -> None:
 
 
 def test_rtp_port_in_use_is_a_clear_error() -> None:
-    port = _free_udp_pair()
+    port = free_udp_pair()
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as busy:
         busy.bind(("127.0.0.1", port))
         with pytest.raises(VideoSourceError) as exc:
@@ -463,7 +450,7 @@ def test_grabber_over_a_file_ends_with_eof(approach_video: tuple[Path, list[np.n
 
 
 def test_grabber_over_rtp_stops_cleanly() -> None:
-    port = _free_udp_pair()
+    port = free_udp_pair()
     stop = threading.Event()
     sender = threading.Thread(
         target=stream_rtp, args=(itertools.repeat(_square(1)[0]), port), kwargs={"fps": 50.0, "stop": stop}

@@ -34,6 +34,7 @@ import collections
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -112,6 +113,38 @@ class SyntheticCamera:
         self._index = 0
         self._closed = False
         self.description = f"synthetic camera {camera.width}x{camera.height} at {rate_hz:g} Hz"
+
+    @classmethod
+    def from_mission(
+        cls,
+        mission: Any,
+        dock: HeaveDock,
+        pose_fn: PoseFn,
+        *,
+        seed: int | None = None,
+        clock: Clock | None = None,
+    ) -> SyntheticCamera:
+        """The mission's synthetic camera: ``mission.build_camera()``, ``camera.mount``, the
+        dock's markers and ``camera.synthetic`` (rate, noise, blur, dock offset, dropouts),
+        rendering ``dock``; image noise seeded with ``seed`` (default ``mission.seed``).
+
+        Raises ``MissionError`` for a camera file that is missing or does not read."""
+        c = mission.camera
+        sy = c.synthetic
+        return cls(
+            mission.build_camera(),
+            mission.dock.marker_layout(),
+            CameraMount(tuple(c.mount.position_body_m), tuple(c.mount.rpy_deg)),
+            dock,
+            pose_fn,
+            rate_hz=sy.rate_hz,
+            noise_std=sy.noise_std,
+            blur_px=sy.blur_px,
+            offset_ned_m=sy.dock_offset_m,
+            dropout_s=sy.dropout_s,
+            seed=mission.seed if seed is None else int(seed),
+            clock=clock,
+        )
 
     def hidden(self, t: float) -> bool:
         """Whether the markers are hidden at mission time ``t`` (s)."""

@@ -26,7 +26,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..clock import Clock, wall_clock
-from .model import CameraMount
 from .tracker import SyntheticCamera
 from .video import stream_rtp
 
@@ -108,23 +107,11 @@ class TruthCameraStream:
         MissionError
             The mission's camera file is missing or does not read.
         """
-        c = mission.camera
-        sy = c.synthetic
-        renderer = SyntheticCamera(
-            mission.build_camera(),
-            mission.dock.marker_layout(),
-            CameraMount(tuple(c.mount.position_body_m), tuple(c.mount.rpy_deg)),
-            mission.build_dock(),
-            pose_fn,
-            rate_hz=sy.rate_hz,
-            noise_std=sy.noise_std,
-            blur_px=sy.blur_px,
-            offset_ned_m=sy.dock_offset_m,
-            dropout_s=sy.dropout_s,
-            seed=mission.seed if seed is None else int(seed),
-            clock=clock,
+        renderer = SyntheticCamera.from_mission(
+            mission, mission.build_dock(), pose_fn, seed=seed, clock=clock
         )
-        return cls(renderer, pose_fn, host, port, rate_hz=sy.rate_hz, encoder=encoder, clock=clock)
+        rate = mission.camera.synthetic.rate_hz
+        return cls(renderer, pose_fn, host, port, rate_hz=rate, encoder=encoder, clock=clock)
 
     # --- frames ------------------------------------------------------------------------------
     def frame(self) -> np.ndarray:

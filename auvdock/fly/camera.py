@@ -78,20 +78,8 @@ class CameraTracking:
         layout = mission.dock.marker_layout()
         mount = CameraMount(tuple(c.mount.position_body_m), tuple(c.mount.rpy_deg))
         if c.source == "synthetic":
-            sy = c.synthetic
-            self.source: Any = SyntheticCamera(
-                cam,
-                layout,
-                mount,
-                model_dock,
-                self.latest_pose,
-                rate_hz=sy.rate_hz,
-                noise_std=sy.noise_std,
-                blur_px=sy.blur_px,
-                offset_ned_m=sy.dock_offset_m,
-                dropout_s=sy.dropout_s,
-                seed=mission.seed,
-                clock=clock,
+            self.source: Any = SyntheticCamera.from_mission(
+                mission, model_dock, self.latest_pose, clock=clock
             )
         else:
             from ..camera.video import open_source

@@ -40,6 +40,23 @@ def free_port() -> int:
         return int(s.getsockname()[1])
 
 
+def free_udp_pair() -> int:
+    """An even UDP port p with p and p + 1 (RTCP) free on this host."""
+    for _ in range(100):
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as a:
+            a.bind(("0.0.0.0", 0))
+            p = a.getsockname()[1]
+            if p % 2 or p > 65000:
+                continue
+            with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as b:
+                try:
+                    b.bind(("0.0.0.0", p + 1))
+                except OSError:
+                    continue
+            return p
+    raise RuntimeError("no free UDP port pair")
+
+
 def write_mission(path: Path, base: Path = TANK, **sections: Any) -> Path:
     """``base`` with top-level sections replaced or merged (dicts are merged one level deep)."""
     data = yaml.safe_load(base.read_text())
