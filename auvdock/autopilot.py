@@ -72,7 +72,7 @@ class Autopilot:
             self.controller: Controller = build_controller(settings, vehicle, dock, estimator, sensors)
         self.name = self.controller.name
         self.dt = settings.dt_s
-        self.solver = resolve_solver(settings.solver.name, self.name)
+        self.solver = resolve_solver(settings.solver.name, self.name, settings.variant)
         self.reads_true_flow = CONTROLLERS[self.name].reads_true_flow
         self.u_prev = np.zeros(vehicle.n_thrusters)
         self.u_applied = np.zeros(vehicle.n_thrusters)

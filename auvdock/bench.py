@@ -55,7 +55,7 @@ def bench_rows(
     cases : sequence of int
         Paper case numbers 1..6 (the shipped missions ``missions/<name>.yaml``).
     controllers, solvers : sequence of str
-        Controller names and ``controller.solver.name`` values (``auto``, ``sqp``, ``ipopt``).
+        Controller names and ``controller.solver.name`` values (``auto``, ``rti``, ``sqp``, ``ipopt``).
     timeout_s : float, optional
         Simulated-time limit (default: the mission's 75 s).
     on_row : callable, optional

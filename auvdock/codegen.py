@@ -11,8 +11,20 @@ builds of the same problem load it (well under a second).
 
 * cache directory: ``$AUVDOCK_CACHE_DIR``, else ``$XDG_CACHE_HOME/auvdock``, else
   ``~/.cache/auvdock``;
-* ``$AUVDOCK_COMPILE``: ``auto`` (default: compile when a C compiler is found), ``never``
-  (always the uncompiled solver);
+* ``$AUVDOCK_COMPILE``:
+
+  - ``auto`` (default): load the compiled library when the cache has it; when it does not,
+    run this time on the uncompiled function and compile it in the background, in a detached
+    process (its own session: Ctrl-C does not stop it) that puts the library in place when
+    it is done, so the first step never waits and later runs load it.  Only one process
+    builds a given library (a ``.building`` directory is the lock);
+  - ``wait``: compile before the first step (what benchmarks want);
+  - ``never``: always the uncompiled function.
+
+  Compiled and uncompiled evaluations give the same bits (the generated C performs CasADi's
+  operations in the virtual machine's order, and ``-O1`` without ``-ffast-math`` keeps IEEE
+  semantics; ``tests/test_codegen.py`` checks it), so a run's results do not depend on the
+  state of the cache, only its speed does.
 * ``$CC`` names the compiler (default: ``cc``, then ``gcc``); without one the solver runs
   uncompiled and a warning says so once;
 * a cache file that does not load (corrupted, truncated, built for another machine) is
@@ -26,9 +38,11 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import os
+import shlex
 import shutil
 import subprocess
 import tempfile
+import time
 import warnings
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -45,18 +59,34 @@ __all__ = [
     "cache_entries",
     "clear_cache",
     "set_reporter",
+    "background_builds",
+    "wait_for_background",
+    "COMPILE_MODES",
     "CFLAGS",
 ]
 
 CFLAGS = ("-O1", "-fPIC", "-shared")
 _warned_no_compiler = False
 _reporter: Callable[[str], contextlib.AbstractContextManager] | None = None
+_notifier: Callable[[str], None] | None = None
 
 
-def set_reporter(fn: Callable[[str], contextlib.AbstractContextManager] | None) -> None:
-    """Show long compiles: ``fn(message)`` returns a context manager held while compiling."""
-    global _reporter
+def set_reporter(
+    fn: Callable[[str], contextlib.AbstractContextManager] | None,
+    notify: Callable[[str], None] | None = None,
+) -> None:
+    """Show compiles: ``fn(message)`` returns a context manager held while compiling in the
+    foreground; ``notify(message)`` says that a background compile started."""
+    global _reporter, _notifier
     _reporter = fn
+    _notifier = notify
+
+
+def _notify(message: str) -> None:
+    if _notifier is not None:
+        _notifier(message)
+    else:
+        warnings.warn(message, stacklevel=4)
 
 
 @contextlib.contextmanager
@@ -79,11 +109,15 @@ def cache_dir() -> Path:
     return base / "solvers"
 
 
+#: ``$AUVDOCK_COMPILE`` values.
+COMPILE_MODES = ("auto", "wait", "never")
+
+
 def compile_mode() -> str:
-    """``auto`` or ``never`` (from ``$AUVDOCK_COMPILE``)."""
+    """``auto``, ``wait`` or ``never`` (from ``$AUVDOCK_COMPILE``; module docstring)."""
     mode = os.environ.get("AUVDOCK_COMPILE", "auto").strip().lower()
-    if mode not in ("auto", "never"):
-        raise ValueError(f"AUVDOCK_COMPILE={mode!r}: expected auto or never")
+    if mode not in COMPILE_MODES:
+        raise ValueError(f"AUVDOCK_COMPILE={mode!r}: expected one of {', '.join(COMPILE_MODES)}")
     return mode
 
 
@@ -123,6 +157,83 @@ def _compiler_or_none() -> str | None:
     return cc
 
 
+def _generate(directory: Path, stem: str, write_sources: Callable[[str], list[str]]) -> list[Path]:
+    """Write the C sources into ``directory`` (CasADi's code generators write into the cwd)."""
+    cwd = os.getcwd()
+    os.chdir(directory)
+    try:
+        return [directory / s for s in write_sources(stem)]
+    finally:
+        os.chdir(cwd)
+
+
+#: A background build whose lock is older than this is taken as abandoned (s).
+STALE_BUILD_S = 30 * 60
+_background: list[subprocess.Popen] = []
+
+
+def _start_background(
+    name: str, key: str, so: Path, cc: str, write_sources: Callable[[str], list[str]]
+) -> bool:
+    """Write the sources now and compile them in a detached process that puts the library in
+    place when it is done (atomically); False when another process is already building it."""
+    directory = so.parent
+    directory.mkdir(parents=True, exist_ok=True)
+    work = directory / f"{name}-{key}.building"
+    try:
+        work.mkdir()
+    except FileExistsError:
+        try:
+            age = time.time() - work.stat().st_mtime
+        except FileNotFoundError:  # finished meanwhile
+            return False
+        if age < STALE_BUILD_S:
+            return False  # someone else builds it
+        shutil.rmtree(work, ignore_errors=True)
+        try:
+            work.mkdir()
+        except FileExistsError:
+            return False
+    try:
+        sources = _generate(work, f"{name}_{key}", write_sources)
+    except BaseException:
+        shutil.rmtree(work, ignore_errors=True)
+        raise
+    out = work / "lib.so"
+    compile_cmd = " ".join(shlex.quote(str(a)) for a in [cc, *CFLAGS, *sources, "-o", out, "-lm"])
+    script = (
+        f"{compile_cmd} 2> {shlex.quote(str(work / 'compile.log'))} && mv -f {shlex.quote(str(out))} "
+        f"{shlex.quote(str(so))}; rm -rf {shlex.quote(str(work))}"
+    )
+    # its own session: a Ctrl-C in the terminal ends the run, not the build later runs will use
+    proc = subprocess.Popen(
+        ["sh", "-c", script],
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
+    _background.append(proc)
+    return True
+
+
+def background_builds() -> list[subprocess.Popen]:
+    """The background compiles this process started (running or finished)."""
+    return list(_background)
+
+
+def wait_for_background(timeout_s: float | None = None) -> bool:
+    """Wait for this process's background compiles; True when none is left running."""
+    deadline = None if timeout_s is None else time.monotonic() + timeout_s
+    for proc in _background:
+        left = None if deadline is None else max(0.0, deadline - time.monotonic())
+        try:
+            proc.wait(left)
+        except subprocess.TimeoutExpired:
+            return False
+    return True
+
+
 def _cached_build(
     name: str,
     parts: list[bytes | str],
@@ -130,7 +241,8 @@ def _cached_build(
     write_sources: Callable[[str], list[str]],
     load: Callable[[Path], Any],
 ) -> tuple[Any, str] | None:
-    """Load ``<cache>/<name>-<key>.so`` or build it; None when compiling failed (warned).
+    """Load ``<cache>/<name>-<key>.so``, or build it; None when the caller should run uncompiled
+    (the build failed, warned; or, in ``auto`` mode, it goes on in the background).
 
     ``write_sources(stem)`` writes C files into the working directory and returns their
     names; ``load(so)`` makes the CasADi object from the library.
@@ -145,19 +257,22 @@ def _cached_build(
             warnings.warn(f"compiled solver {so} does not load ({e}); rebuilding it", stacklevel=3)
             so.unlink(missing_ok=True)
 
+    if compile_mode() == "auto":
+        if _start_background(name, key, so, cc, write_sources):
+            _notify(
+                f"compiling the {name} solver in the background for later runs (cached in {directory}); "
+                "this run evaluates it uncompiled, with the same results"
+            )
+        return None
+
     directory.mkdir(parents=True, exist_ok=True)
     with _reporting(f"compiling the {name} solver once (cached in {directory})"):
         with tempfile.TemporaryDirectory(dir=directory) as tmp:
             tmpd = Path(tmp)
-            cwd = os.getcwd()
-            os.chdir(tmpd)  # CasADi's code generators write into the working directory
-            try:
-                sources = write_sources(f"{name}_{key}")
-            finally:
-                os.chdir(cwd)
+            sources = _generate(tmpd, f"{name}_{key}", write_sources)
             out = tmpd / "lib.so"
             res = subprocess.run(
-                [cc, *CFLAGS, *[str(tmpd / s) for s in sources], "-o", str(out), "-lm"],
+                [cc, *CFLAGS, *[str(s) for s in sources], "-o", str(out), "-lm"],
                 capture_output=True,
                 text=True,
             )

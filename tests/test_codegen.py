@@ -17,7 +17,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 @pytest.fixture
 def cache(tmp_path, monkeypatch):
-    monkeypatch.setenv("AUVDOCK_COMPILE", "auto")
+    monkeypatch.setenv("AUVDOCK_COMPILE", "wait")
     monkeypatch.setenv("AUVDOCK_CACHE_DIR", str(tmp_path / "cache"))
     if codegen.find_compiler() is None:
         pytest.skip("no C compiler")
@@ -94,3 +94,48 @@ def test_compile_notice_is_plain_lines_when_redirected(capsys) -> None:
     assert err[0] == "compiling the mpc solver once (cached in /tmp/x) - about a minute, once"
     assert re.fullmatch(r"compiled in \d+ s", err[1])
     assert len(err) == 2
+
+
+def test_auto_mode_runs_uncompiled_and_compiles_in_the_background(cache, monkeypatch) -> None:
+    """First use never waits: the uncompiled function runs, a detached process builds the library
+    (one notice), and the next build loads it.  Both give the same bits, so a run's results do not
+    depend on the state of the cache."""
+    monkeypatch.setenv("AUVDOCK_COMPILE", "auto")
+    notices: list[str] = []
+    monkeypatch.setattr(codegen, "_notifier", notices.append)
+    m, v, d = _small()
+    c1 = build_controller(m.with_controller("oracle").controller, v, d)
+    assert c1.mpc.build == "uncompiled"
+    assert len(notices) == 1 and notices[0].startswith("compiling the rti_qp_data solver in the background")
+    # a second build while the first compile runs neither waits nor starts another one
+    c2 = build_controller(m.with_controller("oracle").controller, v, d)
+    assert c2.mpc.build in ("uncompiled", "cache") and len(notices) == 1
+    assert codegen.wait_for_background(timeout_s=600)
+    assert all(p.returncode == 0 for p in codegen.background_builds())
+    assert len(list(cache.glob("*.so"))) == 1 and not list(cache.glob("*.building"))
+    c3 = build_controller(m.with_controller("oracle").controller, v, d)
+    assert c3.mpc.build == "cache"
+    assert np.array_equal(_first_move(c1, m), _first_move(c3, m))
+
+
+def test_compiled_and_uncompiled_functions_give_the_same_bits(cache) -> None:
+    """The claim the background compile rests on, on the MPC's own QP data (the largest function)."""
+    import casadi as ca
+
+    m, v, d = _small()
+    c = build_controller(m.with_controller("oracle").controller, v, d)
+    compiled = c.mpc._solver._rti._data
+    assert c.mpc.build == "compiled"
+    monkeypatch_env = pytest.MonkeyPatch()
+    monkeypatch_env.setenv("AUVDOCK_COMPILE", "never")
+    try:
+        plain = build_controller(m.with_controller("oracle").controller, v, d).mpc._solver._rti._data
+    finally:
+        monkeypatch_env.undo()
+    assert isinstance(plain, ca.Function)
+    rng = np.random.default_rng(7)
+    for _ in range(20):
+        w = rng.normal(size=compiled.size1_in(0))
+        p = rng.normal(size=compiled.size1_in(1)) * 0.5
+        for a, b in zip(compiled(w, p), plain(w, p), strict=True):
+            assert np.array_equal(np.asarray(ca.DM(a)), np.asarray(ca.DM(b)))

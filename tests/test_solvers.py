@@ -74,9 +74,13 @@ def test_auto_solver() -> None:
         "rti",
         "rti",
         "rti",
-        "sqp",
+        "rti",
         "rti",
     ]
+    assert resolve_solver("auto", "sequential@paper") == "sqp"
+    assert resolve_solver("auto", "sequential", "paper") == "sqp"
+    assert resolve_solver("auto", "sequential@paper", "robust") == "rti"
+    assert resolve_solver("auto", "optimized@paper") == "rti"
     assert resolve_solver("ipopt", "optimized") == "ipopt"
 
 

@@ -90,7 +90,12 @@ def _main(
     """auvdock: flow-state-estimating MPC docking for underwater vehicles."""
     from ..codegen import set_reporter
 
-    set_reporter(_compile_notice)
+    set_reporter(_compile_notice, _background_notice)
+
+
+def _background_notice(message: str) -> None:
+    """Said once per function when its compile starts in the background (first use)."""
+    err_console.print(message, markup=False, highlight=False, soft_wrap=True)
 
 
 def split_list(values: list[str] | None) -> list[str]:

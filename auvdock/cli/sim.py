@@ -128,7 +128,7 @@ def sim(
 
     from ..controllers import resolve_solver
 
-    solver = resolve_solver(m.controller.solver.name, name)
+    solver = resolve_solver(m.controller.solver.name, m.controller.type, m.controller.variant)
     console.print(
         f"[bold]{m.name}[/bold]: {m.build_flow().describe()}; controller [bold]{name}[/bold] "
         f"(N = {m.controller.horizon_steps}, dt = {m.controller.dt_s} s, {solver})"

@@ -75,6 +75,7 @@ def build_mpc(
         fallback_steps=settings.solver.fallback_steps,
         offset_free=settings.variant == "robust",
         disturbance_time_constant_s=settings.disturbance_time_constant_s,
+        qp=settings.solver.qp,
         **kw,
     )
 

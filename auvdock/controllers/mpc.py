@@ -168,6 +168,15 @@ class DockingMPC:
         The state's over-ground velocity is built from the flow it is given (FSE-MPC:
         ``nu_r + R^T v_c_hat``), so a new flow estimate moves it without a force; the
         disturbance update then predicts from the previous state re-expressed with it.
+    qp : {"hpipm", "qrqp"}
+        QP solver of ``sqp`` and ``rti`` (:data:`auvdock.controllers.rti.QP_SOLVERS`).
+
+    Attributes
+    ----------
+    dims : dict
+        The stage layout of the decision variables ``w = [x~_0, u_0, ..., x~_N]`` (augmented
+        state ``x~_k = [x_k; u_(k-1)]``, 12 + n; input n) and of the constraints (the gaps,
+        12 + n per stage): HPIPM's ``N``, ``nx``, ``nu``, ``ng``.
     """
 
     def __init__(
@@ -194,6 +203,7 @@ class DockingMPC:
         offset_free: bool = False,
         disturbance_time_constant_s: float = 1.0,
         state_from_flow: bool = False,
+        qp: str = "hpipm",
     ) -> None:
         if prediction not in ("naive", "kinematic", "full"):
             raise ValueError(f"unknown prediction model {prediction!r}")
@@ -228,11 +238,11 @@ class DockingMPC:
         self.dist_gain = min(1.0, self.dt / float(disturbance_time_constant_s))
         B = np.asarray(vehicle.allocation, dtype=float)
         self.dist_max = np.abs(B) @ np.maximum(np.abs(vehicle.thrust_min), np.abs(vehicle.thrust_max))
-        self._build(objective_extra, solver, max_iter, tol, hessian)
+        self._build(objective_extra, solver, max_iter, tol, hessian, qp)
         self.reset()
 
     # ------------------------------------------------------------------------------------
-    def _build(self, objective_extra, solver: str, max_iter: int, tol: float, hessian: str) -> None:
+    def _build(self, objective_extra, solver: str, max_iter: int, tol: float, hessian: str, qp: str) -> None:
         N, dt = self.N, self.dt
         model = self.vehicle.model
         nx, nu = self.nx, self.nu
@@ -267,9 +277,14 @@ class DockingMPC:
         step = ca.Function("step", [xs, us, flow, dist], [rk4(f_pred, xs, dt, 1, us)])
         self._step_fn = step
 
+        # stage-structured layout: w = [x~_0, u_0, x~_1, u_1, ..., x~_N] with the augmented state
+        # x~_k = [x_k; v_k], v_k the input of the step before (v_0 = u_prev, fixed by bounds), so
+        # the input-rate cost ||u_k - v_k||_R^2 is a function of one stage and the constraints are
+        # the stage-to-stage gaps F(x~_k, u_k) - x~_(k+1) = 0 in stage order (a block-diagonal
+        # Hessian and the banded Jacobian structure-exploiting QP solvers such as HPIPM expect)
         X = ca.SX.sym("X", nx, N + 1)
+        V = ca.SX.sym("V", nu, N + 1)
         U = ca.SX.sym("U", nu, N)
-        Qm, Rm, Pm = (ca.diag(ca.DM(w)) for w in (self.Q, self.R, self.P))
 
         def over_ground(xk: ca.SX) -> ca.SX:
             if self.prediction == "kinematic":
@@ -294,10 +309,10 @@ class DockingMPC:
             if k >= 1:
                 res.append(error(k))
                 wts.append(self.Q)
-            du = U[:, k] - (u_prev if k == 0 else U[:, k - 1])
-            res.append(du)
+            res.append(U[:, k] - V[:, k])
             wts.append(self.R)
-            g.append(X[:, k + 1] - step(X[:, k], U[:, k] + u_off, flow, dist))
+            g.append(step(X[:, k], U[:, k] + u_off, flow, dist) - X[:, k + 1])
+            g.append(U[:, k] - V[:, k + 1])
         res.append(error(N))
         wts.append(self.P)
         r = ca.vertcat(*res)
@@ -308,9 +323,13 @@ class DockingMPC:
             J_extra = objective_extra(X, U + ca.repmat(u_off, 1, N), params, extra)
         J = J + J_extra
 
-        w = ca.vertcat(ca.vec(X), ca.vec(U))
+        blocks = []
+        for k in range(N + 1):
+            blocks += [X[:, k], V[:, k]] + ([U[:, k]] if k < N else [])
+        w = ca.vertcat(*blocks)
         self._nw = w.shape[0]
-        self._ng = nx * N
+        self._ng = (nx + nu) * N
+        self.dims = {"N": N, "nx": [nx + nu] * (N + 1), "nu": [nu] * N + [0], "ng": [0] * (N + 1)}
         H_gn = None
         if hessian == "gauss-newton":
             Jr = ca.jacobian(r, w)
@@ -321,13 +340,17 @@ class DockingMPC:
             raise ValueError(f"unknown hessian {hessian!r} (known: gauss-newton, exact)")
         if solver not in SOLVERS:
             raise ValueError(f"unknown solver {solver!r} (known: {', '.join(SOLVERS)})")
-        problem = Problem(w, params, J, ca.vertcat(*g), H_gn, hessian)
+        problem = Problem(w, params, J, ca.vertcat(*g), H_gn, hessian, self.dims, qp)
         self._solver = SOLVERS[solver].build(problem, max_iter, tol)
         self.build = self._solver.build
 
         # index helpers into w
-        self._ix = np.arange(nx * (N + 1)).reshape(N + 1, nx)
-        self._iu = nx * (N + 1) + np.arange(nu * N).reshape(N, nu)
+        stage = nx + 2 * nu
+        starts = stage * np.arange(N + 1)[:, None]
+        self._ix = starts + np.arange(nx)
+        self._iv = starts + nx + np.arange(nu)
+        self._iu = starts[:N] + nx + nu + np.arange(nu)
+
 
     # ------------------------------------------------------------------------------------
     def reset(self) -> None:
@@ -383,7 +406,7 @@ class DockingMPC:
         return xr
 
     def _bounds(
-        self, xm: np.ndarray, flow_ned: np.ndarray, u_off: np.ndarray
+        self, xm: np.ndarray, u_prev_m: np.ndarray, flow_ned: np.ndarray, u_off: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
         lbx = np.full(self._nw, -np.inf)
         ubx = np.full(self._nw, np.inf)
@@ -400,6 +423,9 @@ class DockingMPC:
         ubx[self._ix[1:, ANG]] = self.w_max
         lbx[self._iu] = self.u_min - u_off
         ubx[self._iu] = self.u_max - u_off
+        lbx[self._iv[1:]] = self.u_min - u_off  # v_k = u_(k-1): the same box (never active)
+        ubx[self._iv[1:]] = self.u_max - u_off
+        lbx[self._iv[0]] = ubx[self._iv[0]] = u_prev_m
         return lbx, ubx
 
     def solve(
@@ -438,15 +464,18 @@ class DockingMPC:
         p = np.concatenate(
             [xm, u_prev - u_off, dp.ravel(), dv.ravel(), [psi_ref], flow, u_off, ex, self.disturbance]
         )
-        lbx, ubx = self._bounds(xm, flow, u_off)
+        u_prev_m = np.clip(u_prev - u_off, self.u_min - u_off, self.u_max - u_off)
+        lbx, ubx = self._bounds(xm, u_prev_m, flow, u_off)
 
         if self._w_prev is None:
             w0 = np.zeros(self._nw)
             w0[self._ix] = xm
-            w0[self._iu] = np.clip(u_prev - u_off, lbx[self._iu], ubx[self._iu])
+            w0[self._iu] = u_prev_m
+            w0[self._iv] = u_prev_m
         else:
-            w0 = _shift(self._w_prev, self._ix, self._iu)
+            w0 = _shift(self._w_prev, self._ix, self._iv, self._iu)
             w0[self._ix[0]] = xm
+            w0[self._iv[0]] = u_prev_m
         t0 = time.perf_counter()
         if not np.all(np.isfinite(p)):
             # a diverged estimate (or state) would make every solver iteration fail on NaN
@@ -502,11 +531,10 @@ class DockingMPC:
         return X
 
 
-def _shift(w: np.ndarray, ix: np.ndarray, iu: np.ndarray) -> np.ndarray:
-    """Shift a solution one step forward in time, repeating the last state and input."""
+def _shift(w: np.ndarray, *index: np.ndarray) -> np.ndarray:
+    """Shift a solution one step forward in time, repeating the last node of each index array."""
     out = w.copy()
-    out[ix[:-1]] = w[ix[1:]]
-    out[ix[-1]] = w[ix[-1]]
-    out[iu[:-1]] = w[iu[1:]]
-    out[iu[-1]] = w[iu[-1]]
+    for ix in index:
+        out[ix[:-1]] = w[ix[1:]]
+        out[ix[-1]] = w[ix[-1]]
     return out

@@ -15,7 +15,10 @@ lbx <= w <= ubx``::
 
 with ``H`` the Gauss-Newton matrix of the cost (positive semidefinite, no constraint
 curvature, so no multipliers are needed).  Its data (H, gradient, constraint Jacobian and
-residual) come from one compiled, cached CasADi function; the QP is solved by qrqp.
+residual) come from one compiled, cached CasADi function.  The QP is solved by HPIPM (the
+default: the MPC lays its variables out stage by stage, so the QP is an optimal-control QP
+that HPIPM solves by Riccati recursion in time linear in the horizon) or by CasADi's qrqp
+(``qp``, :data:`QP_SOLVERS`).
 
 The first solve of a run has no previous solution to start from, so it iterates the same
 step until it converges (step infinity norm below ``tol``) or ``max_iter`` steps (at most
@@ -32,12 +35,47 @@ import numpy as np
 from .. import timing
 from ..codegen import compiled_function
 
-__all__ = ["RealTimeIteration", "QRQP_OPTIONS", "COLD_START_MAX_ITER"]
+__all__ = [
+    "RealTimeIteration",
+    "QRQP_OPTIONS",
+    "HPIPM_OPTIONS",
+    "QP_SOLVERS",
+    "COLD_START_MAX_ITER",
+    "qp_options",
+]
 
 #: Most steps the first solve of a run takes.
 COLD_START_MAX_ITER = 10
 
 QRQP_OPTIONS = {"print_iter": False, "print_header": False, "print_info": False, "error_on_fail": False}
+
+
+#: The QP solvers an MPC can use (``solver.qp``), with what they are.
+QP_SOLVERS = {
+    "hpipm": "HPIPM, an interior-point method that solves the stage-wise QP by Riccati recursion",
+    "qrqp": "CasADi's qrqp, an active-set method on the sparse QP (sparse QR)",
+}
+
+#: HPIPM's settings: its "speed" mode (Frison and Diehl 2020, HPIPM: a high-performance quadratic
+#: programming framework for model predictive control, IFAC-PapersOnLine 53(2)) with its own
+#: default tolerances (1e-8 on the residuals); 50 iterations at most.
+HPIPM_OPTIONS = {"mode": "speed", "iter_max": 50, "warm_start": 0}
+
+
+def qp_options(qp: str, dims: dict | None) -> dict:
+    """Options of the QP solver ``qp`` (quiet, no exception on failure).
+
+    ``dims`` (``{"N", "nx", "nu", "ng"}``, lists of N + 1 stage sizes) is the stage layout of
+    the QP's variables and constraints, which HPIPM needs (:class:`auvdock.controllers.mpc.DockingMPC`
+    lays the problem out stage by stage).
+    """
+    if qp == "qrqp":
+        return dict(QRQP_OPTIONS)
+    if qp == "hpipm":
+        if dims is None:
+            raise ValueError("the hpipm QP solver needs the problem's stage dimensions")
+        return {**dims, "error_on_fail": False, "hpipm": dict(HPIPM_OPTIONS)}
+    raise ValueError(f"unknown QP solver {qp!r} (known: {', '.join(QP_SOLVERS)})")
 
 
 class RealTimeIteration:
@@ -55,16 +93,30 @@ class RealTimeIteration:
         Steps of the first (cold-start) solve at most (capped at :data:`COLD_START_MAX_ITER`).
     tol : float
         Step size (infinity norm) at which the cold start stops.
+    qp : {"hpipm", "qrqp"}
+        The QP solver (:data:`QP_SOLVERS`).
+    dims : dict, optional
+        Stage layout of ``w`` and ``g`` (:func:`qp_options`); needed by HPIPM.
     """
 
     def __init__(
-        self, w: ca.SX, p: ca.SX, f: ca.SX, g: ca.SX, H: ca.SX, *, max_iter: int = 20, tol: float = 1e-6
+        self,
+        w: ca.SX,
+        p: ca.SX,
+        f: ca.SX,
+        g: ca.SX,
+        H: ca.SX,
+        *,
+        max_iter: int = 20,
+        tol: float = 1e-6,
+        qp: str = "qrqp",
+        dims: dict | None = None,
     ) -> None:
         grad = ca.gradient(f, w)
         Jg = ca.jacobian(g, w)
         fn = ca.Function("rti_qp_data", [w, p], [H, grad, Jg, g, f], ["w", "p"], ["H", "grad", "A", "g", "f"])
         self._data, self.build = compiled_function(fn)
-        self._qp = ca.conic("rti_qp", "qrqp", {"h": H.sparsity(), "a": Jg.sparsity()}, QRQP_OPTIONS)
+        self._qp = ca.conic("rti_qp", qp, {"h": H.sparsity(), "a": Jg.sparsity()}, qp_options(qp, dims))
         self.max_iter = min(int(max_iter), COLD_START_MAX_ITER)
         self.tol = float(tol)
 

@@ -71,6 +71,13 @@ class SolverSpec(Strict):
             "controller's own choice; auvdock.controllers.solvers)"
         ),
     )
+    qp: Literal["hpipm", "qrqp"] = Field(
+        default="hpipm",
+        description=(
+            "QP solver of sqp and rti: hpipm (interior point by Riccati recursion on the stage-wise "
+            "problem) or qrqp (CasADi's active-set method on the sparse QP)"
+        ),
+    )
     max_iter: Annotated[int, Field(ge=1, le=10_000)] = Field(
         default=100, description="iteration limit per solve"
     )

@@ -9,12 +9,14 @@ one it has.  A new solver is one builder function and one line in :data:`SOLVERS
 name        method
 ==========  ======================================================================
 ``ipopt``   IPOPT, interior point, warm-started with the previous multipliers
-``sqp``     CasADi ``sqpmethod`` + ``qrqp``, Gauss-Newton Hessian, iterated to convergence
+``sqp``     CasADi ``sqpmethod``, Gauss-Newton Hessian, iterated to convergence
 ``rti``     real-time iteration: one Gauss-Newton QP step per control step
             (:mod:`auvdock.controllers.rti`)
 ==========  ======================================================================
 
-``auto`` is resolved per controller by :func:`auvdock.controllers.registry.resolve_solver`.
+``sqp`` and ``rti`` solve their QPs with HPIPM (default) or qrqp (``Problem.qp``,
+:data:`auvdock.controllers.rti.QP_SOLVERS`).  ``auto`` is resolved per controller by
+:func:`auvdock.controllers.registry.resolve_solver`.
 """
 
 from __future__ import annotations
@@ -29,7 +31,7 @@ import numpy as np
 
 from .. import timing
 from ..codegen import compiled_nlpsol
-from .rti import QRQP_OPTIONS, RealTimeIteration
+from .rti import RealTimeIteration, qp_options
 
 __all__ = ["Problem", "SolveResult", "NLPSolver", "SolverEntry", "SOLVERS", "solver_names"]
 
@@ -39,7 +41,9 @@ class Problem:
     """A parametric NLP ``min f(w, p) s.t. g(w, p) = 0, lbx <= w <= ubx`` (CasADi SX).
 
     ``H_gn`` is the Gauss-Newton Hessian of ``f`` in ``w`` (positive semidefinite; None
-    when the exact Hessian is wanted), ``hessian`` names which one is meant.
+    when the exact Hessian is wanted), ``hessian`` names which one is meant.  ``dims`` is
+    the stage layout of ``w`` and ``g`` (HPIPM's ``N``, ``nx``, ``nu``, ``ng``) and ``qp`` the
+    QP solver of ``sqp`` and ``rti``.
     """
 
     w: ca.SX
@@ -48,6 +52,10 @@ class Problem:
     g: ca.SX
     H_gn: ca.SX | None
     hessian: str = "gauss-newton"
+    #: stage dimensions of a stage-ordered layout (HPIPM's N, nx, nu, ng)
+    dims: dict | None = None
+    #: the QP solver of rti (and sqp): qrqp, hpipm, ...
+    qp: str = "qrqp"
 
     @property
     def nlp(self) -> dict[str, ca.SX]:
@@ -158,7 +166,7 @@ def build_ipopt(problem: Problem, max_iter: int, tol: float) -> NLPSolver:
 
 
 def build_sqp(problem: Problem, max_iter: int, tol: float) -> NLPSolver:
-    """CasADi's sqpmethod with qrqp, iterated to convergence."""
+    """CasADi's sqpmethod with the problem's QP solver, iterated to convergence."""
     opts = dict(_COMMON)
     hess = _hess_lag(problem, upper=False)
     if hess is not None:
@@ -172,8 +180,8 @@ def build_sqp(problem: Problem, max_iter: int, tol: float) -> NLPSolver:
             "tol_pr": float(tol),
             "tol_du": float(tol) * 100,
             "hessian_approximation": "exact",
-            "qpsol": "qrqp",
-            "qpsol_options": QRQP_OPTIONS,
+            "qpsol": problem.qp,
+            "qpsol_options": qp_options(problem.qp, problem.dims),
         }
     )
     if problem.hessian == "exact":
@@ -186,7 +194,15 @@ class _RTI:
         if problem.H_gn is None:
             raise ValueError("solver rti needs the gauss-newton Hessian")
         self._rti = RealTimeIteration(
-            problem.w, problem.p, problem.f, problem.g, problem.H_gn, max_iter=int(max_iter), tol=tol
+            problem.w,
+            problem.p,
+            problem.f,
+            problem.g,
+            problem.H_gn,
+            max_iter=int(max_iter),
+            tol=tol,
+            qp=problem.qp,
+            dims=problem.dims,
         )
         self.build = self._rti.build
 
@@ -214,7 +230,7 @@ SOLVERS: dict[str, SolverEntry] = {
     e.name: e
     for e in (
         SolverEntry("ipopt", build_ipopt, "IPOPT interior point, warm-started"),
-        SolverEntry("sqp", build_sqp, "sqpmethod + qrqp, Gauss-Newton, iterated to convergence"),
+        SolverEntry("sqp", build_sqp, "sqpmethod, Gauss-Newton, iterated to convergence"),
         SolverEntry("rti", build_rti, "real-time iteration: one Gauss-Newton QP per step"),
     )
 }
