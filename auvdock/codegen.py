@@ -260,13 +260,13 @@ def _cached_build(
     if compile_mode() == "auto":
         if _start_background(name, key, so, cc, write_sources):
             _notify(
-                f"compiling the {name} solver in the background for later runs (cached in {directory}); "
+                f"compiling {name} in the background for later runs (cached in {directory}); "
                 "this run evaluates it uncompiled, with the same results"
             )
         return None
 
     directory.mkdir(parents=True, exist_ok=True)
-    with _reporting(f"compiling the {name} solver once (cached in {directory})"):
+    with _reporting(f"compiling {name} once (cached in {directory})"):
         with tempfile.TemporaryDirectory(dir=directory) as tmp:
             tmpd = Path(tmp)
             sources = _generate(tmpd, f"{name}_{key}", write_sources)

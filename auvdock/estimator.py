@@ -46,6 +46,8 @@ import casadi as ca
 import numpy as np
 from pydantic import Field
 
+from .codegen import compiled_function
+from .fastcall import BufferedFunction
 from .geometry import skew
 from .schema import Strict, Vec3
 from .vehicle import Vehicle
@@ -390,10 +392,12 @@ class FlowEstimator:
         xr = ca.SX.sym("xr", NX)
         u = ca.SX.sym("u", vehicle.n_thrusters)
         zero = ca.DM.zeros(3)
-        self._prop = ca.Function(
+        prop = ca.Function(
             "nu_r_prop", [xr, u], [rk4(lambda x, uu: m.relative_dynamics(x, uu, zero), xr, self.dt, 2, u)]
         )
-        self._rot = m.function("rotation")
+        # called every step: compiled (cached), on bound arrays (no conversion per call)
+        self._prop = BufferedFunction(compiled_function(prop)[0])
+        self._rot = BufferedFunction(m.function("rotation"))
         self.kf: FlowKalmanFilter | None = None
         self._prev: tuple[np.ndarray, np.ndarray] | None = None
 
@@ -409,7 +413,8 @@ class FlowEstimator:
         self._prev = None
 
     def R(self, angles: np.ndarray) -> np.ndarray:
-        return np.asarray(self._rot(angles))
+        """R(Theta) (3, 3), {b} -> {n}, from the one model."""
+        return self._rot(angles)[0].reshape(3, 3, order="F").copy()
 
     def step(
         self,
@@ -452,7 +457,7 @@ class FlowEstimator:
             )
         elif self._prev is not None:
             eta_prev, nu_r_prev = self._prev
-            pred = np.asarray(self._prop(np.concatenate([eta_prev, nu_r_prev]), u_applied)).ravel()
+            pred = self._prop(np.concatenate([eta_prev, nu_r_prev]), u_applied)[0].copy()
             nu_r1_dot = (pred[LIN] - nu_r_prev[0:3]) / self.dt
             nu2_mid = 0.5 * (nu_r_prev[3:6] + nu_r[3:6])
             Sf = skew(self.kf.f)

@@ -55,6 +55,7 @@ from pydantic import Field
 from . import measurements
 from .codegen import compiled_function
 from .estimator import chi2_quantile
+from .fastcall import BufferedFunction
 from .schema import PosFloat, Strict
 from .vehicle.model import rk4
 from .vehicle.state import ANG, ATT, LIN, NX, POS, YAW
@@ -326,39 +327,38 @@ class NavigationFilter:
         self._meas, _ = compiled_function(meas)
         assert all(self._fn.sparsity_out(i).is_dense() for i in range(4))
         self._qd = settings.process_density()
-        # zero-copy evaluation into preallocated arrays
-        self._buf, self._eval = self._fn.buffer()
+        # zero-copy evaluation into preallocated arrays (BufferedFunction)
         self._in_z = np.zeros(NZ)
         self._in_P = np.zeros((NZ, NZ))
         self._in_u = np.zeros(vehicle.n_thrusters)
         # the measurements' second-order covariance at the prediction (zero-copy)
         self._second_order = bool(settings.second_order_prediction)
-        self._curv, _ = compiled_function(curv)
-        self._cbuf, self._ceval = self._curv.buffer()
+        self._curv = BufferedFunction(compiled_function(curv)[0])
         self._c_out = np.zeros((_NY, _NY))
         self._c_in_z = np.zeros(NZ)
         self._c_in_P = np.zeros((NZ, NZ))
         for i, a in enumerate((self._c_in_z, self._in_u, self._c_in_P)):
-            self._cbuf.set_arg(i, memoryview(a))
-        self._cbuf.set_res(0, memoryview(self._c_out))
+            self._curv.bind_input(i, a)
+        self._curv.bind_output(0, self._c_out)
         self._in_h = np.zeros(1)
         self._out_z = np.zeros(NZ)
         self._out_P = np.zeros((NZ, NZ))
         self._out_y = np.zeros(_NY)
         self._out_Ht = np.zeros((NZ, _NY))  # column-major H (NY x NZ) read as its transpose
+        self._step = BufferedFunction(self._fn)
         for i, a in enumerate((self._in_z, self._in_P, self._in_u, self._in_h, self._qd)):
-            self._buf.set_arg(i, memoryview(a))
+            self._step.bind_input(i, a)
         for i, a in enumerate((self._out_z, self._out_P, self._out_y, self._out_Ht)):
-            self._buf.set_res(i, memoryview(a))
+            self._step.bind_output(i, a)
         # the measurement model alone, at an iterate of the iterated update (zero-copy too)
-        self._mbuf, self._meval = self._meas.buffer()
+        self._meas_fast = BufferedFunction(self._meas)
         self._m_in_z = np.zeros(NZ)
         self._m_out_y = np.zeros(_NY)
         self._m_out_Ht = np.zeros((NZ, _NY))
         for i, a in enumerate((self._m_in_z, self._in_u)):
-            self._mbuf.set_arg(i, memoryview(a))
+            self._meas_fast.bind_input(i, a)
         for i, a in enumerate((self._m_out_y, self._m_out_Ht)):
-            self._mbuf.set_res(i, memoryview(a))
+            self._meas_fast.bind_output(i, a)
         # per tuple of reading kinds: its rows of the stacked measurement, which are angles,
         # and, if any is curved (its second-order covariance is not zero), their block's index
         self._rows: dict[tuple[str, ...], tuple[np.ndarray, np.ndarray, Any, Any]] = {}
@@ -416,7 +416,7 @@ class NavigationFilter:
         self._in_z[:] = self.z
         self._in_P[:] = self.P
         self._in_h[0] = h
-        self._eval()
+        self._step.evaluate()
 
     def _predict(self, t: float, u: np.ndarray) -> None:
         self._in_u[:] = u
@@ -497,7 +497,7 @@ class NavigationFilter:
             if curved is not None and self._second_order:
                 self._c_in_z[:] = self.z
                 self._c_in_P[:] = self.P
-                self._ceval()
+                self._curv.evaluate()
                 R_extra = self._c_out[curved]
             blocks = gate_blocks if gate else None
             try:
@@ -626,7 +626,7 @@ class NavigationFilter:
                 break
             y_lin = y[rows] + H @ (z_new - z_i)  # the linearised model at the new iterate
             self._m_in_z[:] = z_new
-            self._meval()
+            self._meas_fast.evaluate()
             y, Ht = self._m_out_y, self._m_out_Ht
             z_i = z_new
             # (angle rows are linear in z: no wrap needed here)

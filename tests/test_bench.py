@@ -46,7 +46,7 @@ def test_bench_parts_of_an_fse_step() -> None:
     evaluations and its solver, and Python."""
     from auvdock.bench import bench_rows
 
-    (row,) = bench_rows([2], ["sequential"], ["auto"], timeout_s=0.5)
+    (row,) = bench_rows([2], ["sequential"], ["sqp"], timeout_s=0.5)
     want = ["flow filter", "perception", "nlp functions", "nlp solver", "python"]
     assert list(row["parts_median_ms"]) == want
     assert row["parts_median_ms"]["nlp solver"] > 0

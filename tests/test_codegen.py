@@ -40,7 +40,8 @@ def test_build_once_then_load_and_same_answer(cache, monkeypatch) -> None:
     m, v, d = _small()
     c1 = build_controller(m.with_controller("oracle").controller, v, d)
     assert c1.mpc.build == "compiled"
-    assert len(list(cache.glob("*.so"))) == 1
+    # the RTI's QP data and the offset-free observer's one-step model
+    assert sorted(p.name.split("-")[0] for p in cache.glob("*.so")) == ["mpc_model_step", "rti_qp_data"]
     c2 = build_controller(m.with_controller("oracle").controller, v, d)
     assert c2.mpc.build == "cache"
     # the compiled solver gives the uncompiled one's answer
@@ -56,16 +57,17 @@ def test_changed_parameter_builds_anew(cache) -> None:
     assert build_controller(m.with_controller("oracle").controller, v, d).mpc.build == "compiled"
     m2, v2, d2 = _small(**{"controller.weights.R": 20.0})
     assert build_controller(m2.with_controller("oracle").controller, v2, d2).mpc.build == "compiled"
-    assert len(list(cache.glob("*.so"))) == 2
+    assert len(list(cache.glob("rti_qp_data-*.so"))) == 2  # the model step did not change
+    assert len(list(cache.glob("mpc_model_step-*.so"))) == 1
     assert {p.name for p, _ in codegen.cache_entries()} == {p.name for p in cache.glob("*.so")}
-    assert codegen.clear_cache() == 2
+    assert codegen.clear_cache() == 3
     assert codegen.cache_entries() == []
 
 
 def test_corrupted_cache_file_is_rebuilt_with_a_warning(cache) -> None:
     m, v, d = _small()
     build_controller(m.with_controller("oracle").controller, v, d)
-    (so,) = cache.glob("*.so")
+    (so,) = cache.glob("rti_qp_data-*.so")
     so.write_bytes(b"not a shared library")
     with pytest.warns(UserWarning, match="does not load"):
         c = build_controller(m.with_controller("oracle").controller, v, d)
@@ -106,13 +108,17 @@ def test_auto_mode_runs_uncompiled_and_compiles_in_the_background(cache, monkeyp
     m, v, d = _small()
     c1 = build_controller(m.with_controller("oracle").controller, v, d)
     assert c1.mpc.build == "uncompiled"
-    assert len(notices) == 1 and notices[0].startswith("compiling the rti_qp_data solver in the background")
-    # a second build while the first compile runs neither waits nor starts another one
+    assert sorted(notices) == [
+        f"compiling {name} in the background for later runs (cached in {cache}); "
+        "this run evaluates it uncompiled, with the same results"
+        for name in ("mpc_model_step", "rti_qp_data")
+    ]
+    # a second build while the first compiles neither waits nor starts another one
     c2 = build_controller(m.with_controller("oracle").controller, v, d)
-    assert c2.mpc.build in ("uncompiled", "cache") and len(notices) == 1
+    assert c2.mpc.build in ("uncompiled", "cache") and len(notices) == 2
     assert codegen.wait_for_background(timeout_s=600)
     assert all(p.returncode == 0 for p in codegen.background_builds())
-    assert len(list(cache.glob("*.so"))) == 1 and not list(cache.glob("*.building"))
+    assert len(list(cache.glob("*.so"))) == 2 and not list(cache.glob("*.building"))
     c3 = build_controller(m.with_controller("oracle").controller, v, d)
     assert c3.mpc.build == "cache"
     assert np.array_equal(_first_move(c1, m), _first_move(c3, m))

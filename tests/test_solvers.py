@@ -21,14 +21,14 @@ FLOW = np.array([0.5, 0.5, 0.0])  # case 2's current, NED m/s
 FIRST_MOVE_TOL_N = 0.01
 
 
-def _case2(solver: str):
+def _case2(solver: str, qp: str = "hpipm"):
     return load_mission(ROOT / "missions" / "diagonal.yaml").with_updates(
-        **{"controller.type": "oracle", "controller.solver.name": solver}
+        **{"controller.type": "oracle", "controller.solver.name": solver, "controller.solver.qp": qp}
     )
 
 
-def _first_move(solver: str) -> tuple[np.ndarray, int]:
-    m = _case2(solver)
+def _first_move(solver: str, qp: str = "hpipm") -> tuple[np.ndarray, int]:
+    m = _case2(solver, qp)
     c = build_controller(m.controller, m.build_vehicle(), m.build_dock())
     r = c.mpc.solve(0.0, m.start_state(), np.zeros(8), FLOW)
     assert r.status == STATUS_OK, r.return_status
@@ -48,6 +48,27 @@ def test_first_move_agrees_with_ipopt(solver: str, ipopt_first_move: np.ndarray)
     if solver == "rti":
         # the cold start iterates to convergence, within its cap
         assert 1 < iters <= COLD_START_MAX_ITER
+
+
+@pytest.mark.parametrize("solver", ["rti", "sqp"])
+def test_qrqp_and_hpipm_give_the_same_first_move(solver: str) -> None:
+    """The QP solvers solve the same QPs: HPIPM on the stage-wise layout, qrqp on the sparse matrix."""
+    u_hpipm, _ = _first_move(solver, "hpipm")
+    u_qrqp, _ = _first_move(solver, "qrqp")
+    assert np.max(np.abs(u_hpipm - u_qrqp)) <= 1e-4
+    assert np.max(np.abs(u_hpipm)) > 1.0
+
+
+def test_stage_layout_is_what_hpipm_is_told() -> None:
+    """The decision vector is [x~_0, u_0, x~_1, u_1, ..., x~_N] with x~_k = [x_k; u_(k-1)]: the
+    dims HPIPM gets add up to the problem's size, and the gaps come 20 rows per stage."""
+    m = _case2("rti")
+    mpc = build_controller(m.controller, m.build_vehicle(), m.build_dock()).mpc
+    d = mpc.dims
+    assert d["N"] == 10 and d["nx"] == [20] * 11 and d["nu"] == [8] * 10 + [0] and d["ng"] == [0] * 11
+    assert sum(d["nx"]) + sum(d["nu"]) == mpc._nw == 28 * 10 + 20
+    assert mpc._ng == 20 * 10
+    assert mpc._ix[1, 0] == 28 and mpc._iv[0, 0] == 12 and mpc._iu[0, 0] == 20
 
 
 @pytest.mark.parametrize("solver", SOLVERS)

@@ -54,6 +54,7 @@ from .. import timing
 from ..codegen import compiled_function, compiled_nlpsol
 from ..dock import HeaveDock
 from ..estimator import EstimatorSettings, FlowEstimator, gramian_step, information_lower_bound
+from ..fastcall import BufferedFunction
 from ..interrupts import SigintDeferred
 from ..schema import Vec6Pos
 from ..sensors import SensorSettings
@@ -168,7 +169,8 @@ class PerceptionLaw:
             n = self._corners.shape[0]
             values = f_obj.map(n)(ca.DM(self._corners.T), ca.repmat(params, 1, n))
             fn = ca.Function("perception_corners", [params], [values])
-            self._corner_values, self.build = compiled_function(fn)
+            corner_values, self.build = compiled_function(fn)
+            self._corner_values = BufferedFunction(corner_values)
         elif method == "sqp":
             self._solver, self.build = compiled_nlpsol(
                 "perception",
@@ -212,7 +214,7 @@ class PerceptionLaw:
         F0 = max(float(information_lower_bound(G)), 1e-12)
         p = np.concatenate([x, flow_ned, _six(G), [F0]])
         if self.method == "corners":
-            values = np.asarray(self._corner_values(p)).ravel()
+            values = self._corner_values(p)[0].copy()
             ok = bool(np.any(np.isfinite(values)))
             tau = self._corners[int(np.nanargmin(values))].copy() if ok else np.zeros(6)
             return tau, self._B_pinv @ tau, ok
@@ -259,7 +261,8 @@ class FSEMPC:
         dt = settings.dt_s
         self.vehicle = vehicle
         rot = vehicle.model.function("rotation")
-        self._rotation = lambda angles: np.asarray(rot(angles))
+        rot_fast = BufferedFunction(rot)
+        self._rotation = lambda angles: rot_fast(angles)[0].reshape(3, 3, order="F").copy()
         self.estimator = FlowEstimator(
             vehicle,
             dt,

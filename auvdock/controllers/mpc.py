@@ -60,7 +60,9 @@ from typing import Literal
 import casadi as ca
 import numpy as np
 
+from ..codegen import compiled_function
 from ..dock import HeaveDock
+from ..fastcall import BufferedFunction
 from ..interrupts import SigintDeferred
 from ..vehicle import Vehicle
 from ..vehicle.model import rk4
@@ -68,7 +70,7 @@ from ..vehicle.state import ANG, ATT, ETA, LIN, NU, POS, YAW
 from .solvers import SOLVERS, Problem, SolveResult
 from .status import STATUS_FAILED, STATUS_FALLBACK_ZERO, STATUS_NOT_CONVERGED, STATUS_OK
 
-__all__ = ["DockingMPC", "MPCResult"]
+__all__ = ["DockingMPC", "MPCResult", "shift_solution"]
 
 Prediction = Literal["naive", "kinematic", "full"]
 
@@ -225,7 +227,8 @@ class DockingMPC:
         if self.R.shape != (self.nu,):
             raise ValueError(f"R must have {self.nu} values (one per thruster), got {self.R.shape}")
         rot = vehicle.model.function("rotation")
-        self._R = lambda angles: np.asarray(rot(angles))  # R(Theta), {b} -> {n}
+        rot_fast = BufferedFunction(rot)
+        self._R = lambda angles: rot_fast(angles)[0].reshape(3, 3, order="F").copy()  # R(Theta), {b} -> {n}
         self._rot_map = rot.map(self.N + 1)
         self._extra_hessian = bool(extra_hessian)
         if fallback_steps < 0:
@@ -274,8 +277,9 @@ class DockingMPC:
             f_pred = lambda x, u: model.relative_dynamics(x, u, flow, tau_d(x))  # noqa: E731
         else:
             f_pred = lambda x, u: model.dynamics(x, u, flow, zero, tau_d(x))  # noqa: E731
-        step = ca.Function("step", [xs, us, flow, dist], [rk4(f_pred, xs, dt, 1, us)])
-        self._step_fn = step
+        step = ca.Function("mpc_model_step", [xs, us, flow, dist], [rk4(f_pred, xs, dt, 1, us)])
+        # the offset-free observer's one-step prediction, evaluated every control step: compiled
+        self._step_fn = BufferedFunction(compiled_function(step)[0])
 
         # stage-structured layout: w = [x~_0, u_0, x~_1, u_1, ..., x~_N] with the augmented state
         # x~_k = [x_k; v_k], v_k the input of the step before (v_0 = u_prev, fixed by bounds), so
@@ -350,7 +354,7 @@ class DockingMPC:
         self._ix = starts + np.arange(nx)
         self._iv = starts + nx + np.arange(nu)
         self._iu = starts[:N] + nx + nu + np.arange(nu)
-
+        self._lb_static, self._ub_static = self._bound_template()
 
     # ------------------------------------------------------------------------------------
     def reset(self) -> None:
@@ -365,13 +369,12 @@ class DockingMPC:
         self.velocity_offset = np.zeros(3)
         self._obs_prev: tuple[np.ndarray, np.ndarray] | None = None
 
-    def _observe(self, xm: np.ndarray, u_applied: np.ndarray, flow: np.ndarray) -> np.ndarray:
+    def _observe(self, xm: np.ndarray, u_applied: np.ndarray, flow: np.ndarray, R: np.ndarray) -> np.ndarray:
         """Update the disturbances from the last step's prediction error (module docstring);
-        returns the state corrected by the velocity offset."""
+        returns the state corrected by the velocity offset.  ``R`` is R(Theta) at ``xm``."""
         if not np.all(np.isfinite(xm)):
             self._obs_prev = None
             return xm
-        R = self._R(xm[ATT])
         prev = self._obs_prev
         if prev is not None:
             xm_prev, flow_prev = prev
@@ -381,7 +384,7 @@ class DockingMPC:
                 xm_prev = xm_prev.copy()
                 xm_prev[LIN] += self._R(xm_prev[ATT]).T @ (flow - flow_prev)
                 flow_prev = flow
-            pred = np.asarray(self._step_fn(xm_prev, u_applied, flow_prev, self.disturbance)).ravel()
+            pred = self._step_fn(xm_prev, u_applied, flow_prev, self.disturbance)[0].copy()
             e_p = xm[POS] - pred[POS]  # {n}: a velocity the state does not show
             v = self.velocity_offset + self.dist_gain * e_p / self.dt
             if np.all(np.isfinite(v)):
@@ -397,30 +400,32 @@ class DockingMPC:
         self._obs_prev = (xc.copy(), flow.copy())
         return xc
 
-    def _to_model_state(self, x: np.ndarray, flow_ned: np.ndarray) -> np.ndarray:
-        """The measured state in the prediction model's coordinates."""
+    def _to_model_state(self, x: np.ndarray, flow_ned: np.ndarray, R: np.ndarray) -> np.ndarray:
+        """The measured state in the prediction model's coordinates (``R`` = R(Theta) at ``x``)."""
         if self.prediction != "kinematic":
             return x
         xr = x.copy()
-        xr[LIN] -= self._R(x[ATT]).T @ flow_ned
+        xr[LIN] -= R.T @ flow_ned
         return xr
 
-    def _bounds(
-        self, xm: np.ndarray, u_prev_m: np.ndarray, flow_ned: np.ndarray, u_off: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray]:
+    def _bound_template(self) -> tuple[np.ndarray, np.ndarray]:
+        """The bounds that never change: |nu_2| <= w_max at k = 1..N, the rest unbounded."""
         lbx = np.full(self._nw, -np.inf)
         ubx = np.full(self._nw, np.inf)
+        lbx[self._ix[1:, ANG]] = -self.w_max
+        ubx[self._ix[1:, ANG]] = self.w_max
+        return lbx, ubx
+
+    def _bounds(
+        self, xm: np.ndarray, u_prev_m: np.ndarray, flow_ned: np.ndarray, u_off: np.ndarray, R: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        lbx, ubx = self._lb_static.copy(), self._ub_static.copy()
         lbx[self._ix[0]] = xm
         ubx[self._ix[0]] = xm
         # relative velocity box, centred on the body-frame flow at the current attitude
-        if self.prediction == "full":
-            centre = self._R(xm[ATT]).T @ flow_ned
-        else:
-            centre = np.zeros(3)
+        centre = R.T @ flow_ned if self.prediction == "full" else np.zeros(3)
         lbx[self._ix[1:, LIN]] = centre - self.v_rel_max
         ubx[self._ix[1:, LIN]] = centre + self.v_rel_max
-        lbx[self._ix[1:, ANG]] = -self.w_max
-        ubx[self._ix[1:, ANG]] = self.w_max
         lbx[self._iu] = self.u_min - u_off
         ubx[self._iu] = self.u_max - u_off
         lbx[self._iv[1:]] = self.u_min - u_off  # v_k = u_(k-1): the same box (never active)
@@ -455,9 +460,10 @@ class DockingMPC:
         flow = np.zeros(3) if flow_ned is None else np.asarray(flow_ned, dtype=float)
         u_off = np.zeros(self.nu) if u_offset is None else np.asarray(u_offset, dtype=float)
         ex = np.zeros(self.n_extra) if extra is None else np.asarray(extra, dtype=float)
-        xm = self._to_model_state(x, flow)
+        R = self._R(x[ATT])  # the model states below share x's attitude
+        xm = self._to_model_state(x, flow, R)
         if self.offset_free:
-            xm = self._observe(xm, np.asarray(u_prev, dtype=float), flow)
+            xm = self._observe(xm, np.asarray(u_prev, dtype=float), flow, R)
         _, dp, dv = self.dock.trajectory(t, self.dt, self.N)
         psi_d = self.dock.heading_rad
         psi_ref = psi_d + 2 * math.pi * round((x[YAW] - psi_d) / (2 * math.pi))
@@ -465,7 +471,7 @@ class DockingMPC:
             [xm, u_prev - u_off, dp.ravel(), dv.ravel(), [psi_ref], flow, u_off, ex, self.disturbance]
         )
         u_prev_m = np.clip(u_prev - u_off, self.u_min - u_off, self.u_max - u_off)
-        lbx, ubx = self._bounds(xm, u_prev_m, flow, u_off)
+        lbx, ubx = self._bounds(xm, u_prev_m, flow, u_off, R)
 
         if self._w_prev is None:
             w0 = np.zeros(self._nw)
@@ -473,7 +479,7 @@ class DockingMPC:
             w0[self._iu] = u_prev_m
             w0[self._iv] = u_prev_m
         else:
-            w0 = _shift(self._w_prev, self._ix, self._iv, self._iu)
+            w0 = shift_solution(self._w_prev, self._ix, self._iv, self._iu)
             w0[self._ix[0]] = xm
             w0[self._iv[0]] = u_prev_m
         t0 = time.perf_counter()
@@ -531,7 +537,7 @@ class DockingMPC:
         return X
 
 
-def _shift(w: np.ndarray, *index: np.ndarray) -> np.ndarray:
+def shift_solution(w: np.ndarray, *index: np.ndarray) -> np.ndarray:
     """Shift a solution one step forward in time, repeating the last node of each index array."""
     out = w.copy()
     for ix in index:

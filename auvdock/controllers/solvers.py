@@ -33,7 +33,7 @@ from .. import timing
 from ..codegen import compiled_nlpsol
 from .rti import RealTimeIteration, qp_options
 
-__all__ = ["Problem", "SolveResult", "NLPSolver", "SolverEntry", "SOLVERS", "solver_names"]
+__all__ = ["Problem", "SolveResult", "NLPSolver", "SolverEntry", "SOLVERS", "IPOPT_OPTIONS", "solver_names"]
 
 
 @dataclass
@@ -144,6 +144,18 @@ def _hess_lag(problem: Problem, upper: bool) -> ca.Function | None:
 
 _COMMON = {"expand": True, "print_time": False, "error_on_fail": False}
 
+#: IPOPT's options in the ``ipopt`` solver (besides the mission's ``max_iter`` and ``tol``): quiet,
+#: and warm-started from the previous primal-dual solution (the benchmarks give do-mpc the same).
+IPOPT_OPTIONS: dict[str, object] = {
+    "print_level": 0,
+    "sb": "yes",
+    "acceptable_tol": 1e-4,
+    "warm_start_init_point": "yes",
+    "mu_init": 1e-2,
+    "warm_start_bound_push": 1e-6,
+    "warm_start_mult_bound_push": 1e-6,
+}
+
 
 def build_ipopt(problem: Problem, max_iter: int, tol: float) -> NLPSolver:
     """IPOPT with a warm start from the previous primal-dual solution."""
@@ -151,17 +163,7 @@ def build_ipopt(problem: Problem, max_iter: int, tol: float) -> NLPSolver:
     hess = _hess_lag(problem, upper=True)
     if hess is not None:
         opts["hess_lag"] = hess
-    opts["ipopt"] = {
-        "print_level": 0,
-        "sb": "yes",
-        "max_iter": int(max_iter),
-        "tol": float(tol),
-        "acceptable_tol": 1e-4,
-        "warm_start_init_point": "yes",
-        "mu_init": 1e-2,
-        "warm_start_bound_push": 1e-6,
-        "warm_start_mult_bound_push": 1e-6,
-    }
+    opts["ipopt"] = {**IPOPT_OPTIONS, "max_iter": int(max_iter), "tol": float(tol)}
     return _Nlpsol("ipopt", problem, opts)
 
 
