@@ -45,6 +45,7 @@ def bench_rows(
     controllers: Sequence[str] = ("naive", "kinematic", "oracle", "sequential", "optimized"),
     solvers: Sequence[str] = ("auto",),
     *,
+    qps: Sequence[str] = ("hpipm",),
     timeout_s: float | None = None,
     on_row: Callable[[dict[str, Any]], None] | None = None,
 ) -> list[dict[str, Any]]:
@@ -56,6 +57,9 @@ def bench_rows(
         Paper case numbers 1..6 (the shipped missions ``missions/<name>.yaml``).
     controllers, solvers : sequence of str
         Controller names and ``controller.solver.name`` values (``auto``, ``rti``, ``sqp``, ``ipopt``).
+    qps : sequence of str
+        ``controller.solver.qp`` values (``hpipm``, ``qrqp``) for the solvers that solve QPs
+        (``rti``, ``sqp``); ``ipopt`` runs once whatever they are.
     timeout_s : float, optional
         Simulated-time limit (default: the mission's 75 s).
     on_row : callable, optional
@@ -73,29 +77,38 @@ def bench_rows(
         base = load_mission(d / f"{PAPER_MISSIONS[case - 1]}.yaml")
         for ctrl in controllers:
             for solver in solvers:
-                m = base.with_updates(**{"controller.type": ctrl, "controller.solver.name": solver})
-                s = simulate(m, timeout_s=timeout_s)
-                o = s.outcome
-                ms = np.asarray(s.solve_times_s) * 1e3
-                row = {
-                    "case": case,
-                    "mission": base.name,
-                    "controller": ctrl,
-                    "solver": resolve_solver(solver, ctrl),
-                    "docked": bool(o["docked"]),
-                    "time_to_dock_s": float(o["time_to_dock_s"]),
-                    "median_ms": float(np.median(ms)),
-                    "p95_ms": float(np.percentile(ms, 95)),
-                    "p99_ms": float(np.percentile(ms, 99)),
-                    "max_ms": float(ms.max()),
-                    "real_time_factor": float(o["real_time_factor"]),
-                    "wall_time_s": float(o["wall_time_s"]),
-                    "setup_time_s": float(o.get("setup_time_s", float("nan"))),
-                    "solver_failures": int(o["solver_failures"]),
-                    "steps": int(len(ms)),
-                    "parts_median_ms": _parts_median_ms(s.time_parts_s, ms),
-                }
-                rows.append(row)
-                if on_row is not None:
-                    on_row(row)
+                resolved = resolve_solver(solver, ctrl)
+                for qp in qps if resolved in ("rti", "sqp") else qps[:1]:
+                    m = base.with_updates(
+                        **{
+                            "controller.type": ctrl,
+                            "controller.solver.name": solver,
+                            "controller.solver.qp": qp,
+                        }
+                    )
+                    s = simulate(m, timeout_s=timeout_s)
+                    o = s.outcome
+                    ms = np.asarray(s.solve_times_s) * 1e3
+                    row = {
+                        "case": case,
+                        "mission": base.name,
+                        "controller": ctrl,
+                        "solver": resolved,
+                        "qp": qp if resolved in ("rti", "sqp") else "",
+                        "docked": bool(o["docked"]),
+                        "time_to_dock_s": float(o["time_to_dock_s"]),
+                        "median_ms": float(np.median(ms)),
+                        "p95_ms": float(np.percentile(ms, 95)),
+                        "p99_ms": float(np.percentile(ms, 99)),
+                        "max_ms": float(ms.max()),
+                        "real_time_factor": float(o["real_time_factor"]),
+                        "wall_time_s": float(o["wall_time_s"]),
+                        "setup_time_s": float(o.get("setup_time_s", float("nan"))),
+                        "solver_failures": int(o["solver_failures"]),
+                        "steps": int(len(ms)),
+                        "parts_median_ms": _parts_median_ms(s.time_parts_s, ms),
+                    }
+                    rows.append(row)
+                    if on_row is not None:
+                        on_row(row)
     return rows

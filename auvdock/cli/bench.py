@@ -23,6 +23,11 @@ def bench(
         help="Solvers: auto (rti; sqp for Sequential FSE-MPC in the paper variant), rti, sqp, ipopt; "
         "comma-separated or repeated (default: auto).",
     ),
+    qps: list[str] | None = typer.Option(
+        None,
+        "--qp",
+        help="QP solvers of rti and sqp: hpipm, qrqp; comma-separated or repeated (default: hpipm).",
+    ),
     timeout: float | None = typer.Option(None, "--timeout", min=0.0, help="Simulated-time limit per run, s."),
     json_out: bool = typer.Option(False, "--json", help="One JSON object per run on stdout, nothing else."),
 ) -> None:
@@ -40,6 +45,7 @@ def bench(
         os.environ["AUVDOCK_COMPILE"] = "wait"
 
     from ..bench import DEFAULT_CASES, bench_rows, machine_line
+    from ..controllers.rti import QP_SOLVERS
     from ..mission import SOLVER_NAMES
     from ..timing import PARTS
 
@@ -48,6 +54,10 @@ def bench(
     for s_ in solv:
         if s_ not in SOLVER_NAMES:
             fail_input(f"--solvers: unknown solver {s_!r} (known: {', '.join(SOLVER_NAMES)})")
+    qp_list = split_list(qps) or ["hpipm"]
+    for q in qp_list:
+        if q not in QP_SOLVERS:
+            fail_input(f"--qp: unknown QP solver {q!r} (known: {', '.join(QP_SOLVERS)})")
     case_list = list(cases or DEFAULT_CASES)
     for c in case_list:
         if not 1 <= c <= 6:
@@ -59,7 +69,7 @@ def bench(
             clean = {k: (None if isinstance(v, float) and v != v else v) for k, v in r.items()}
             print(json.dumps(clean), flush=True)
 
-        bench_rows(case_list, ctrls, solv, timeout_s=timeout, on_row=emit)
+        bench_rows(case_list, ctrls, solv, qps=qp_list, timeout_s=timeout, on_row=emit)
         return
     console.print(f"[bold]bench[/bold] on {machine_line()}")
     t = Table(title="per controller step, ms (full closed-loop runs)")
@@ -67,19 +77,22 @@ def bench(
               "failures"):  # fmt: skip
         t.add_column(h, justify="right" if h not in ("controller", "solver") else "left")
 
+    def label(r: dict[str, Any]) -> str:
+        return f"{r['solver']}/{r['qp']}" if r["qp"] else r["solver"]
+
     def add(r: dict[str, Any]) -> None:
         ttd = f"{r['time_to_dock_s']:.2f} s" if r["docked"] else "timeout"
         console.print(
-            f"  case {r['case']} {r['controller']:<10} {r['solver']:<5} {ttd:>9}"
+            f"  case {r['case']} {r['controller']:<10} {label(r):<9} {ttd:>9}"
             f"  median {r['median_ms']:6.2f} ms  p99 {r['p99_ms']:6.2f} ms"
         )
         t.add_row(
-            str(r["case"]), r["controller"], r["solver"], "yes" if r["docked"] else "no", ttd,
+            str(r["case"]), r["controller"], label(r), "yes" if r["docked"] else "no", ttd,
             f"{r['median_ms']:.2f}", f"{r['p95_ms']:.2f}", f"{r['p99_ms']:.2f}", f"{r['max_ms']:.2f}",
             f"{r['real_time_factor']:.1f}", str(r["solver_failures"]),
         )  # fmt: skip
 
-    rows = bench_rows(case_list, ctrls, solv, timeout_s=timeout, on_row=add)
+    rows = bench_rows(case_list, ctrls, solv, qps=qp_list, timeout_s=timeout, on_row=add)
     console.print(t)
     # where a step's time goes: the median of each part and of what they leave (Python)
     seen = {p for r in rows for p in r["parts_median_ms"]} - {"python"}
@@ -90,6 +103,6 @@ def bench(
     for r in rows:
         pm = r["parts_median_ms"]
         cells = [f"{pm[n]:.2f}" if n in pm else "-" for n in names]
-        parts.add_row(str(r["case"]), r["controller"], r["solver"], *cells, f"{pm['python']:.2f}",
+        parts.add_row(str(r["case"]), r["controller"], label(r), *cells, f"{pm['python']:.2f}",
                       f"{r['median_ms']:.2f}")  # fmt: skip
     console.print(parts)
