@@ -8,8 +8,10 @@ Per-step datasets
 -----------------
 One row per control step k, at time t_k.  Every dataset is chunked and resizable along
 axis 0 (``maxshape[0] = None``) and grows as the run goes; the writer flushes the file at
-least every ``flush_every`` steps (default 1), so after Ctrl-C, a crash or a killed
-process the file still holds every flushed step.  T is the number of rows.
+least every ``flush_every`` steps (default 1; ``sim``, ``compare`` and ``fly`` flush every
+:data:`FLUSH_PERIOD_S` of control steps, :func:`flush_steps`), so after a crash or a killed
+process the file still holds every flushed step; Ctrl-C and every other ending write the
+rest.  T is the number of rows.
 
 =====================  ==========  =========  ===========  ==============================================
 name                   shape       unit       frame        meaning
@@ -100,7 +102,19 @@ __all__ = [
     "read_run",
     "open_format",
     "list_runs",
+    "FLUSH_PERIOD_S",
+    "flush_steps",
 ]
+
+#: Rows reach the file at least this often (s of control steps): a crash loses at most this
+#: much; every ending (Ctrl-C included) writes the rest.  A flush per step cost a third of a
+#: simulation's wall time (h5py resizes and writes every dataset).
+FLUSH_PERIOD_S = 1.0
+
+
+def flush_steps(dt_s: float) -> int:
+    """``flush_every`` for a control period ``dt_s`` (s): :data:`FLUSH_PERIOD_S` worth of steps."""
+    return max(1, round(FLUSH_PERIOD_S / float(dt_s)))
 
 #: Value of the ``format`` attribute that marks a run group.
 FORMAT = "auvdock-run"

@@ -33,7 +33,7 @@ from .controllers.status import FAILURE_CODES, STATUS_NAMES, STATUS_NO_STEP
 from .geometry import wrap_angle
 from .interrupts import SigintDeferred
 from .mission import Mission
-from .results import RunWriter
+from .results import RunWriter, flush_steps
 from .sensors import SensorModel, SensorSuite
 from .vehicle.state import ATT, LIN, POS, YAW
 
@@ -198,6 +198,7 @@ def simulate(
                     "reads_true_flow": ap.reads_true_flow,
                     "estimation": mission.estimation,
                 },
+                flush_every=flush_steps(dt),
             )
 
     if ap.navigation is None:  # estimation: truth -- the paper's sensing of [eta; nu_r]

@@ -17,15 +17,12 @@ import numpy as np
 from ..controllers.status import STATUS_HOLD, STATUS_NAMES, STATUS_NO_STEP
 from ..geometry import rotation_zyx
 from ..interrupts import SigintDeferred
-from ..results import RunWriter
+from ..results import FLUSH_PERIOD_S, RunWriter, flush_steps
 from ..simulation import run_outcome
 from ..vehicle.state import POS
 
 __all__ = ["FlyRecorder", "TELEMETRY_SERIES"]
 
-#: Rows reach the file at least this often (s of control steps; a crash of the topside
-#: computer loses at most this much; every ending writes the rest).
-FLUSH_PERIOD_S = 1.0
 #: Per-step series of every fly session (name -> per-row shape).
 TELEMETRY_SERIES = {
     "channels_us": (6,),
@@ -82,7 +79,7 @@ class FlyRecorder:
             status_names=STATUS_NAMES,
             n_thrusters=vehicle.n_thrusters,
             attrs=attrs,
-            flush_every=max(1, round(FLUSH_PERIOD_S / float(attrs.get("dt_s", FLUSH_PERIOD_S)))),
+            flush_every=flush_steps(float(attrs.get("dt_s", FLUSH_PERIOD_S))),
         )
         self.writer: RunWriter | None = None
 
