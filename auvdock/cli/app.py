@@ -17,12 +17,27 @@ from rich.console import Console
 from .. import __version__
 from ..mission import Mission, MissionError, load_mission
 
+
+def _usage_name(self) -> str:  # noqa: ANN001 -- a method of typer.core.TyperArgument
+    """An argument in the usage line as click writes it: ``MISSION``, ``[PATH]``, ``PATH...``."""
+    name = str(self.metavar or self.name or "").upper()
+    if not self.required:
+        name = f"[{name}]"
+    return name + ("..." if self.nargs != 1 else "")
+
+
+# typer 0.29 writes required arguments as ``{mission}`` in the usage line (and, in its rich help,
+# flags as taking ``<bool>``): the help is click's plain layout, with click's argument names
+if hasattr(typer.core.TyperArgument, "_usage_display_name"):
+    typer.core.TyperArgument._usage_display_name = _usage_name
+
 app = typer.Typer(
     name="auvdock",
     help="Dock a BlueROV2 Heavy to a heaving wave-energy-converter dock in ocean currents.",
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
+    rich_markup_mode=None,
 )
 
 console = Console()
@@ -50,6 +65,14 @@ def fail_input(message: str) -> None:
     """Print one line on stderr and exit with status 2 (bad input)."""
     err_console.print(f"error: {message}", markup=False, highlight=False, soft_wrap=True)
     raise typer.Exit(code=2)
+
+
+def positive_timeout(value: float | None) -> float | None:
+    """``--timeout`` (a callback): None, or a positive, finite number of seconds; else exit 2
+    with one line (the same rule in sim, compare, sweep, bench and fly)."""
+    if value is not None and not (value > 0 and value < float("inf")):
+        fail_input(f"--timeout: must be a positive number of seconds (got {value})")
+    return value
 
 
 def output_dir(path: Path, option: str = "--out") -> Path:

@@ -7,7 +7,7 @@ from typing import Any
 import typer
 from rich.table import Table
 
-from .app import app, console, controller_list, fail_input, split_list
+from .app import app, console, controller_list, fail_input, positive_timeout, split_list
 
 
 @app.command()
@@ -28,7 +28,9 @@ def bench(
         "--qp",
         help="QP solvers of rti and sqp: hpipm, qrqp; comma-separated or repeated (default: hpipm).",
     ),
-    timeout: float | None = typer.Option(None, "--timeout", min=0.0, help="Simulated-time limit per run, s."),
+    timeout: float | None = typer.Option(
+        None, "--timeout", callback=positive_timeout, help="Simulated-time limit per run, s."
+    ),
     json_out: bool = typer.Option(False, "--json", help="One JSON object per run on stdout, nothing else."),
 ) -> None:
     """Per-step solve time (median, p95, p99, max), real-time factor and outcome per controller x

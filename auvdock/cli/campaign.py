@@ -16,7 +16,7 @@ import typer
 from rich.table import Table
 
 from ..mission import MissionError
-from .app import app, console, controller_list, exit_interrupted, fail_input, output_dir
+from .app import app, console, controller_list, exit_interrupted, fail_input, output_dir, positive_timeout
 
 
 def _interrupted(path: Path) -> None:
@@ -120,7 +120,10 @@ def compare(
     out: Path = typer.Option(Path("runs/compare"), "--out", "-o", help="Output directory."),
     seed: int | None = typer.Option(None, "--seed", help="Seed for every run (default: each mission's)."),
     timeout: float | None = typer.Option(
-        None, "--timeout", min=0.0, help="Docking timeout for every run, s (default: each mission's)."
+        None,
+        "--timeout",
+        callback=positive_timeout,
+        help="Docking timeout for every run, s (default: each mission's).",
     ),
     estimation: str | None = typer.Option(
         None,
@@ -244,7 +247,12 @@ def sweep(
         None, "--out", "-o", help="Output directory (default: runs/sweeps/<name>)."
     ),
     workers: int | None = typer.Option(
-        None, "--workers", "-j", min=1, help="Local worker processes (default: one per core)."
+        None,
+        "--jobs",
+        "-j",
+        "--workers",
+        min=1,
+        help="Local worker processes (default: one per core; --workers is its older name).",
     ),
     scheduler: str | None = typer.Option(
         None, "--scheduler", help="Run on a Dask cluster instead, e.g. tcp://HOST:8786."
@@ -273,7 +281,7 @@ def sweep(
         fail_input(str(e))
     words = ["auvdock", "sweep", str(sweep_file), "--out", str(out_dir)]
     if workers:
-        words += ["--workers", str(workers)]
+        words += ["--jobs", str(workers)]
     if scheduler:
         words += ["--scheduler", scheduler]
     words += [

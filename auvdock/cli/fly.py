@@ -25,6 +25,7 @@ from .app import (
     fail_input,
     load_or_exit,
     output_dir,
+    positive_timeout,
 )
 
 #: The clock ``fly`` and ``vehicle-sim`` wait and pace on.
@@ -48,7 +49,9 @@ def fly(
         None, "--controller", "-c", help="Override the mission's controller."
     ),
     out: Path | None = typer.Option(None, "--out", "-o", help="Output directory (default: the mission's)."),
-    timeout: float | None = typer.Option(None, "--timeout", min=0.0, help="Override the docking timeout, s."),
+    timeout: float | None = typer.Option(
+        None, "--timeout", callback=positive_timeout, help="Override the docking timeout, s."
+    ),
     sysid: int = typer.Option(
         255, "--sysid", min=1, max=255, help="Our MAVLink system id (ArduSub SYSID_MYGCS)."
     ),
@@ -142,13 +145,16 @@ def fly(
 
 @app.command("vehicle-sim")
 def vehicle_sim(
+    mission: Path | None = typer.Argument(
+        None, help="Mission YAML file or name for the start state, vehicle and flow (default: tank_0p6hz)."
+    ),
     port: str = typer.Option(
         "udpout:127.0.0.1:14550",
         "--port",
         help="pymavlink connection string to serve the vehicle's MAVLink on.",
     ),
-    mission: Path | None = typer.Option(
-        None, "--mission", "-m", help="Mission for the start state, vehicle and flow (default: tank_0p6hz)."
+    mission_option: Path | None = typer.Option(
+        None, "--mission", "-m", hidden=True, help="The mission, as an option (older spelling)."
     ),
     speed: float = typer.Option(1.0, "--speed", min=0.01, help="Simulated seconds per wall-clock second."),
     hold: bool = typer.Option(
@@ -172,6 +178,9 @@ def vehicle_sim(
         port = connection_string(port)
     except ValueError as e:
         fail_input(f"--port {port}: {e}")
+    if mission is not None and mission_option is not None:
+        fail_input(f"--mission {mission_option}: the mission is also given as {mission}; give it once")
+    mission = mission if mission is not None else mission_option
     path = mission if mission is not None else missions_dir() / "tank_0p6hz.yaml"
     m = load_or_exit(path)
     console.print(

@@ -22,6 +22,7 @@ from .app import (
     fail_input,
     load_or_exit,
     output_dir,
+    positive_timeout,
 )
 
 if TYPE_CHECKING:
@@ -83,7 +84,10 @@ def sim(
     no_plots: bool = typer.Option(False, "--no-plots", help="Do not draw the PNG plots."),
     seed: int | None = typer.Option(None, "--seed", help="Random seed (default: the mission's)."),
     timeout: float | None = typer.Option(
-        None, "--timeout", help="Simulated-time limit in s (default: the mission's)."
+        None,
+        "--timeout",
+        callback=positive_timeout,
+        help="Simulated-time limit in s (default: the mission's).",
     ),
     estimation: str | None = typer.Option(
         None,

@@ -1,0 +1,74 @@
+"""The command line is consistent: the same option means the same thing everywhere, and the help
+reads like click's (``MISSION``, flags without a value type)."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+from typer.testing import CliRunner
+
+from auvdock.cli import app, main
+
+runner = CliRunner()
+
+COMMANDS = [
+    "validate", "missions", "sim", "plot", "compare", "report", "sweep", "fly", "vehicle-sim", "replay",
+    "sitl-physics", "bench", "markers", "calibrate",
+]  # fmt: skip
+
+
+@pytest.mark.parametrize("command", COMMANDS)
+def test_help_has_no_bool_values_and_click_argument_names(command: str) -> None:
+    res = runner.invoke(app, [command, "--help"], env={"COLUMNS": "80"})
+    assert res.exit_code == 0, res.output
+    assert "<bool>" not in res.output
+    usage = res.output.splitlines()[0]
+    assert usage.startswith(f"Usage: auvdock {command} [OPTIONS]")
+    assert "{" not in usage and not re.search(r"\b[a-z_]+\b$", usage.split("[OPTIONS]")[1].strip() or "X")
+
+
+def test_mission_is_positional_everywhere() -> None:
+    for command, usage in (
+        ("sim", "Usage: auvdock sim [OPTIONS] MISSION"),
+        ("fly", "Usage: auvdock fly [OPTIONS] MISSION"),
+        ("vehicle-sim", "Usage: auvdock vehicle-sim [OPTIONS] [MISSION]"),
+        ("sitl-physics", "Usage: auvdock sitl-physics [OPTIONS] MISSION"),
+    ):
+        res = runner.invoke(app, [command, "--help"])
+        assert res.output.splitlines()[0] == usage
+
+
+def test_vehicle_sim_mission_given_twice() -> None:
+    res = runner.invoke(app, ["vehicle-sim", "tank_0p6hz", "--mission", "tank_0p8hz"])
+    assert res.exit_code == 2
+    assert (
+        res.stderr.strip()
+        == "error: --mission tank_0p8hz: the mission is also given as tank_0p6hz; give it once"
+    )
+
+
+@pytest.mark.parametrize(
+    "command",
+    [["sim", "still"], ["compare", "still"], ["bench", "--case", "2"], ["fly", "tank_0p6hz"]],
+)
+@pytest.mark.parametrize("value", ["0", "-1", "inf"])
+def test_timeout_must_be_positive_in_every_command(command: list[str], value: str) -> None:
+    res = runner.invoke(app, [*command, "--timeout", value])
+    assert res.exit_code == 2, res.output
+    assert (
+        res.stderr.strip() == f"error: --timeout: must be a positive number of seconds (got {float(value)})"
+    )
+
+
+def test_jobs_means_worker_processes_in_compare_and_sweep(capsys) -> None:
+    for command in ("compare", "sweep"):
+        res = runner.invoke(app, [command, "--help"], env={"COLUMNS": "120"})
+        assert re.search(r"-j, --jobs", res.output), res.output
+    with pytest.raises(SystemExit) as e:  # through the console script's one-line option errors
+        main(["sweep", "model_error", "--jobs", "0"])
+    assert e.value.code == 2
+    # (the program name is pytest's here; "auvdock" from the console script)
+    assert capsys.readouterr().err.strip().endswith(
+        " sweep: --jobs/-j/--workers: Input should be greater than or equal to 1"
+    )
