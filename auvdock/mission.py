@@ -38,6 +38,7 @@ from .schema import NonNegFloat, PosFloat, Strict, Vec3, Vec12, first_error, fix
 from .sensors import SensorSettings
 from .vehicle import Vehicle, load_vehicle, preset_names
 from .vehicle.params import VehicleParamsError
+from .yamlio import load_yaml_strict
 
 __all__ = [
     "Mission",
@@ -599,7 +600,7 @@ def read_yaml_file(path: Path, error: type[MissionError] = MissionError) -> tupl
     except (OSError, UnicodeDecodeError) as e:
         raise error(path, "", f"cannot read: {e}") from None
     try:
-        return yaml.safe_load(text), text
+        return load_yaml_strict(text), text
     except yaml.YAMLError as e:
         mark = getattr(e, "problem_mark", None)
         where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark is not None else ""

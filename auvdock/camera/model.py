@@ -29,6 +29,7 @@ import yaml
 
 from ..geometry import rotation_zyx
 from ..vehicle.state import POS
+from ..yamlio import load_yaml_strict
 
 __all__ = [
     "gray_image",
@@ -255,7 +256,7 @@ def load_camera(path: str | Path) -> CameraModel:
     """
     path = Path(path)
     try:
-        data = yaml.safe_load(path.read_text())
+        data = load_yaml_strict(path.read_text())
     except OSError as exc:
         raise ValueError(f"{path}: cannot read camera file ({exc.strerror})") from None
     except yaml.YAMLError as exc:

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from ..yamlio import load_yaml_strict
 from .thrusters import ThrusterCurve
 
 __all__ = ["VehicleParams", "VehicleParamsError", "preset_names", "load_params", "deep_merge"]
@@ -204,7 +205,7 @@ def _read_raw(name_or_path: str | Path) -> dict[str, Any]:
             raise VehicleParamsError("vehicle", f"parameter file {s} does not exist")
         text = p.read_text()
     try:
-        d = yaml.safe_load(text)
+        d = load_yaml_strict(text)
     except yaml.YAMLError as e:
         raise VehicleParamsError("vehicle", f"parameter file {s} is not valid YAML: {e}") from None
     if not isinstance(d, dict):
