@@ -72,3 +72,13 @@ def test_jobs_means_worker_processes_in_compare_and_sweep(capsys) -> None:
     assert capsys.readouterr().err.strip().endswith(
         " sweep: --jobs/-j/--workers: Input should be greater than or equal to 1"
     )
+
+
+def test_sim_says_it_does_not_use_the_camera(tmp_path) -> None:
+    res = runner.invoke(app, ["sim", "tank_camera", "--timeout", "0.1", "--no-plots", "--out", str(tmp_path)])
+    assert res.exit_code == 1, res.output  # ran, did not dock in 0.1 s
+    assert res.stderr.splitlines()[0] == (
+        "note: tank_camera: dock.source camera is what fly and vehicle-sim rehearsals track; sim gives the "
+        "controller the mission's dock trajectory (Assumption 2), so the camera section (its dock offset "
+        "included) is not used here"
+    )

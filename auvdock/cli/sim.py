@@ -109,8 +109,6 @@ def sim(
     m = load_or_exit(mission)
     if controller is not None:
         check_controller(controller)
-    if timeout is not None and not (timeout > 0 and np.isfinite(timeout)):
-        fail_input(f"--timeout: must be a positive number of seconds (got {timeout})")
     if seed is not None:
         if seed < 0:
             fail_input(f"--seed: must be >= 0 (got {seed})")
@@ -125,6 +123,15 @@ def sim(
         if variant not in ("paper", "robust"):
             fail_input(f"--variant: must be paper or robust (got {variant!r})")
         m = m.with_updates(**{"controller.variant": variant})
+    if m.dock.source == "camera":
+        err_console.print(
+            f"note: {m.name}: dock.source camera is what fly and vehicle-sim rehearsals track; sim gives the "
+            "controller the mission's dock trajectory (Assumption 2), so the camera section "
+            "(its dock offset included) is not used here",
+            markup=False,
+            highlight=False,
+            soft_wrap=True,
+        )
     name = m.controller.type + ("_paper" if m.controller.variant == "paper" else "")
     out_dir = output_dir(out if out is not None else Path(m.output.dir))
     h5 = out_dir / f"{m.name}_{name}.h5"
