@@ -82,3 +82,21 @@ def test_sim_says_it_does_not_use_the_camera(tmp_path) -> None:
         "controller the mission's dock trajectory (Assumption 2), so the camera section (its dock offset "
         "included) is not used here"
     )
+
+
+@pytest.mark.parametrize("mission", ["still", "tank_camera", "sitl_vec6_0p6hz"])
+def test_validate_keeps_every_value_whole_at_80_columns_and_prints_brackets(mission: str) -> None:
+    from auvdock.catalog import missions_dir
+    from auvdock.cli.validate import _flatten
+    from auvdock.mission import load_mission
+
+    res = runner.invoke(app, ["validate", mission], env={"COLUMNS": "80"})
+    assert res.exit_code == 0, res.output
+    rows: list[tuple[str, str]] = []
+    _flatten("", load_mission(missions_dir() / f"{mission}.yaml").resolved(), rows)
+    lines = res.output.splitlines()
+    for k, v in rows:
+        assert f"{k} = {v}" in lines, k
+    # descriptions are text, not markup: "[x y z (NED m), ...]" and "[{id, size_m, ...}]" survive
+    assert any(line.strip().startswith("[x y z (NED m)") for line in lines)
+    assert any("markers: [{id, size_m, position_dock_m, rpy_deg}]" in line for line in lines)

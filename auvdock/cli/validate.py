@@ -6,7 +6,9 @@ from pathlib import Path
 from typing import Any
 
 import typer
+from rich.padding import Padding
 from rich.table import Table
+from rich.text import Text
 
 from ..mission import Mission
 from .app import app, console, load_or_exit
@@ -41,13 +43,18 @@ def validate(mission: Path = typer.Argument(..., help="Mission YAML file.")) -> 
     m = load_or_exit(mission)
     rows: list[tuple[str, str]] = []
     _flatten("", m.resolved(), rows)
-    table = Table(title=f"mission {m.name} ({mission})", show_lines=False)
-    table.add_column("field", style="cyan", no_wrap=True)
-    table.add_column("value")
-    table.add_column("meaning / unit", style="dim")
+    # one "field = value" line each (never cut, whatever the terminal's width), its meaning below;
+    # Text, not markup: descriptions say things like "[eta; nu_r]"
+    console.print(Text(f"mission {m.name} ({mission})", style="bold"))
     for k, v in rows:
-        table.add_row(k, v, _describe(k))
-    console.print(table)
+        line = Text()
+        line.append(k, style="cyan")
+        line.append(" = ")
+        line.append(v)
+        console.print(line, soft_wrap=True)
+        meaning = _describe(k)
+        if meaning:
+            console.print(Padding(Text(meaning, style="dim"), (0, 0, 0, 4), expand=False))
     flow = m.build_flow()
     dock = m.build_dock()
     console.print(f"flow: {flow.describe()}")
