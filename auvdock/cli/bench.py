@@ -5,9 +5,9 @@ from __future__ import annotations
 from typing import Any
 
 import typer
-from rich.table import Table
 
 from .app import app, console, controller_list, fail_input, positive_timeout, split_list
+from .tables import fitted_table
 
 
 @app.command()
@@ -74,10 +74,9 @@ def bench(
         bench_rows(case_list, ctrls, solv, qps=qp_list, timeout_s=timeout, on_row=emit)
         return
     console.print(f"[bold]bench[/bold] on {machine_line()}")
-    t = Table(title="per controller step, ms (full closed-loop runs)")
-    for h in ("case", "controller", "solver", "docked", "time to dock", "median", "p95", "p99", "max", "RTF",
-              "failures"):  # fmt: skip
-        t.add_column(h, justify="right" if h not in ("controller", "solver") else "left")
+    header = ("case", "controller", "solver", "docked", "time to dock", "median", "p95", "p99", "max", "RTF",
+              "failures")  # fmt: skip
+    cells: list[list[str]] = []
 
     def label(r: dict[str, Any]) -> str:
         return f"{r['solver']}/{r['qp']}" if r["qp"] else r["solver"]
@@ -88,23 +87,34 @@ def bench(
             f"  case {r['case']} {r['controller']:<10} {label(r):<9} {ttd:>9}"
             f"  median {r['median_ms']:6.2f} ms  p99 {r['p99_ms']:6.2f} ms"
         )
-        t.add_row(
+        cells.append([
             str(r["case"]), r["controller"], label(r), "yes" if r["docked"] else "no", ttd,
             f"{r['median_ms']:.2f}", f"{r['p95_ms']:.2f}", f"{r['p99_ms']:.2f}", f"{r['max_ms']:.2f}",
             f"{r['real_time_factor']:.1f}", str(r["solver_failures"]),
-        )  # fmt: skip
+        ])  # fmt: skip
 
     rows = bench_rows(case_list, ctrls, solv, qps=qp_list, timeout_s=timeout, on_row=add)
-    console.print(t)
+    console.print(
+        fitted_table(
+            "per controller step, ms (full closed-loop runs)", header, cells, console.width,
+            priority=[0, 1, 2, 4, 5, 7, 6, 3, 8, 9, 10], where="bench --json",
+        )
+    )  # fmt: skip
     # where a step's time goes: the median of each part and of what they leave (Python)
     seen = {p for r in rows for p in r["parts_median_ms"]} - {"python"}
     names = [n for n in PARTS if n in seen] + sorted(seen - set(PARTS))
-    parts = Table(title="where a step's time goes: median ms per part (auvdock.timing)")
-    for h in ("case", "controller", "solver", *names, "python", "step"):
-        parts.add_column(h, justify="left" if h in ("controller", "solver") else "right")
+    part_rows = []
     for r in rows:
         pm = r["parts_median_ms"]
-        cells = [f"{pm[n]:.2f}" if n in pm else "-" for n in names]
-        parts.add_row(str(r["case"]), r["controller"], label(r), *cells, f"{pm['python']:.2f}",
-                      f"{r['median_ms']:.2f}")  # fmt: skip
-    console.print(parts)
+        part_rows.append([str(r["case"]), r["controller"], label(r), *(f"{pm[n]:.2f}" if n in pm else "-"
+                          for n in names), f"{pm['python']:.2f}", f"{r['median_ms']:.2f}"])  # fmt: skip
+    console.print(
+        fitted_table(
+            "where a step's time goes: median ms per part (auvdock.timing)",
+            ("case", "controller", "solver", *names, "python", "step"),
+            part_rows,
+            console.width,
+            priority=[0, 1, 2, len(names) + 4, len(names) + 3, *range(3, len(names) + 3)],
+            where="bench --json",
+        )
+    )

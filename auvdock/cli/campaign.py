@@ -17,6 +17,7 @@ from rich.table import Table
 
 from ..mission import MissionError
 from .app import app, console, controller_list, exit_interrupted, fail_input, output_dir, positive_timeout
+from .tables import fitted_table
 
 
 def _interrupted(path: Path) -> None:
@@ -29,19 +30,29 @@ def _campaign_outputs(path: Path, out_dir: Path, *, pdf: bool, plots: bool, reco
 
     if records is None or attrs is None:
         records, attrs = read_campaign(path)
-    t = Table(title=f"campaign {path}")
-    for h in SUMMARY_HEADER:
-        t.add_column(h, overflow="fold")
-    for row in summary_rows(records):
-        style = "red" if row[2] == "failed" else ("green" if row[2] == "yes" else None)
-        t.add_row(*row, style=style)
-    console.print(t)
+    rows = summary_rows(records)
+    # most important first: the outcome, then the figures of Figs. 2-5, then the timings
+    priority = [SUMMARY_HEADER.index(h) for h in (
+        "case", "controller", "docked", "time to dock", "closest approach m", "flow RMSE m/s",
+        "median solve ms", "path length m", "contact speed m/s", "p95 solve ms", "wall s", "setup s",
+    )]  # fmt: skip
+    console.print(
+        fitted_table(
+            f"campaign {path}",
+            SUMMARY_HEADER,
+            rows,
+            console.width,
+            priority=priority,
+            where="summary.md",
+            row_styles=["red" if r[2] == "failed" else ("green" if r[2] == "yes" else None) for r in rows],
+        )
+    )
     ft = Table(
         title="the paper's findings (parameters.md 5b), explained with this campaign's figures",
         show_lines=True,
     )
     for h in ("finding", "measured here", "verdict", "why it differs"):
-        ft.add_column(h, overflow="fold")
+        ft.add_column(h)  # prose: wrapped at spaces, never inside a number
     for f in check_findings(records):
         colour = {"holds": "green", "not run": "dim"}.get(f.verdict, "yellow")
         ft.add_row(f.finding, f.measured, f"[{colour}]{f.verdict}[/{colour}]", f.explanation)
@@ -63,12 +74,7 @@ def _sweep_outputs(path: Path, out_dir: Path, title: str) -> list[Path]:
 
     rows, _ = read_sweep(path)
     header, table_rows = success_table(rows)
-    t = Table(title=title)
-    for h in header:
-        t.add_column(h, justify="left" if h == "controller" else "right")
-    for r in table_rows:
-        t.add_row(*r)
-    console.print(t)
+    console.print(fitted_table(title, header, table_rows, console.width, where="summary.md"))
     written = report_sweep(path, out_dir)
     md = [p for p in written if p.suffix == ".md"]
     if md:
