@@ -40,6 +40,7 @@ import hashlib
 import os
 import shlex
 import shutil
+import signal
 import subprocess
 import tempfile
 import time
@@ -49,6 +50,8 @@ from pathlib import Path
 from typing import Any
 
 import casadi as ca
+
+from .interrupts import sigint_pending, sigint_raises
 
 __all__ = [
     "cache_dir",
@@ -270,16 +273,28 @@ def _cached_build(
         with tempfile.TemporaryDirectory(dir=directory) as tmp:
             tmpd = Path(tmp)
             sources = _generate(tmpd, f"{name}_{key}", write_sources)
+            if sigint_pending():  # Ctrl-C while the C was written: do not start the compiler
+                raise KeyboardInterrupt
             out = tmpd / "lib.so"
-            res = subprocess.run(
+            # its own process group, so that stopping it stops cc1 and the assembler under the driver
+            proc = subprocess.Popen(
                 [cc, *CFLAGS, *[str(s) for s in sources], "-o", str(out), "-lm"],
-                capture_output=True,
+                stdout=subprocess.DEVNULL,
+                stderr=subprocess.PIPE,
                 text=True,
+                start_new_session=True,
             )
-            if res.returncode != 0:
+            try:
+                with sigint_raises():  # the compile may take a minute: Ctrl-C stops it at once
+                    _, stderr = proc.communicate()
+            except BaseException:  # Ctrl-C: the compiler goes with us, nothing half-built is cached
+                with contextlib.suppress(ProcessLookupError):
+                    os.killpg(proc.pid, signal.SIGKILL)
+                proc.wait()
+                raise
+            if proc.returncode != 0:
                 warnings.warn(
-                    f"compiling the {name} solver failed ({cc}: {res.stderr.strip()[:300]}); "
-                    "running uncompiled",
+                    f"compiling the {name} solver failed ({cc}: {stderr.strip()[:300]}); running uncompiled",
                     stacklevel=3,
                 )
                 return None

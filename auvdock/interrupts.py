@@ -12,10 +12,15 @@ go on.  Outside the main thread, where handlers cannot be set, it does nothing.
 
 from __future__ import annotations
 
+import contextlib
 import signal
 import threading
+from collections.abc import Iterator
 
-__all__ = ["SigintDeferred"]
+__all__ = ["SigintDeferred", "sigint_raises", "sigint_pending"]
+
+#: The SigintDeferred blocks open now (innermost last), main thread only.
+_open: list[SigintDeferred] = []
 
 
 class SigintDeferred:
@@ -29,6 +34,8 @@ class SigintDeferred:
                 self._old = signal.signal(signal.SIGINT, self._handler)
             except ValueError:
                 self._old = None
+            else:
+                _open.append(self)
         return self
 
     def _handler(self, signum, frame) -> None:
@@ -37,5 +44,32 @@ class SigintDeferred:
     def __exit__(self, *exc: object) -> None:
         if self._old is not None:
             signal.signal(signal.SIGINT, self._old)
+            if _open and _open[-1] is self:
+                _open.pop()
         if self.hit:
             raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
+def sigint_raises() -> Iterator[None]:
+    """Ctrl-C raises KeyboardInterrupt at once inside this block, even within a
+    :class:`SigintDeferred` one: for long waits that are safe to cut (a C compiler running in a
+    child process, which the caller then stops)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    try:
+        old = signal.signal(signal.SIGINT, signal.default_int_handler)
+    except ValueError:  # pragma: no cover - not the main interpreter
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
+def sigint_pending() -> bool:
+    """Whether a Ctrl-C is being held back by an open :class:`SigintDeferred` block (so a long
+    piece of work that can be skipped, such as starting a compile, should not start)."""
+    return any(d.hit for d in _open)

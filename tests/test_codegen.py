@@ -145,3 +145,46 @@ def test_compiled_and_uncompiled_functions_give_the_same_bits(cache) -> None:
         p = rng.normal(size=compiled.size1_in(1)) * 0.5
         for a, b in zip(compiled(w, p), plain(w, p), strict=True):
             assert np.array_equal(np.asarray(ca.DM(a)), np.asarray(ca.DM(b)))
+
+
+def test_ctrl_c_while_compiling_stops_the_compiler_and_says_so(tmp_path) -> None:
+    """AUVDOCK_COMPILE=wait: Ctrl-C during the first-use compile ends the run (exit 130, one line)
+    and takes the C compiler with it; nothing half-built is left in the cache."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    if codegen.find_compiler() is None:
+        pytest.skip("no C compiler")
+    cache_root = tmp_path / "cache"
+    env = {
+        **os.environ,
+        "AUVDOCK_COMPILE": "wait",
+        "AUVDOCK_CACHE_DIR": str(cache_root),
+        "PYTHONUNBUFFERED": "1",
+    }
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "auvdock.cli", "sim", "still", "--no-plots", "--out", str(tmp_path / "out")],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    lines = []
+    for line in proc.stderr:  # wait until the long compile has started
+        lines.append(line.rstrip("\n"))
+        if line.startswith("compiling rti_qp_data once"):
+            break
+    else:
+        pytest.fail(f"no compile notice: {lines}")
+    time.sleep(2.0)  # writing the C or compiling it (tens of seconds): either way, stopped
+    proc.send_signal(signal.SIGINT)
+    rest = proc.stderr.read()
+    assert proc.wait(timeout=120) == 130
+    assert rest.strip().splitlines()[-1] == "interrupted"
+    assert "Traceback" not in rest
+    left = subprocess.run(["pgrep", "-f", str(cache_root)], capture_output=True, text=True)
+    assert left.stdout.strip() == "", "a compiler is still running"
+    assert not list((cache_root / "solvers").glob("rti_qp_data-*.so"))
