@@ -10,8 +10,8 @@ import yaml
 from test_camera import CAM, COLS, ROWS, SQUARE, _board_views
 from typer.testing import CliRunner
 
-from auvdock.camera import load_camera, sheet_size_in
-from auvdock.camera.layout import default_layout
+from auvdock.camera import load_camera
+from auvdock.camera.layout import default_layout, plan_pages
 from auvdock.cli import app
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -23,8 +23,8 @@ def test_markers_sheet_from_a_mission(tmp_path: Path) -> None:
     res = runner.invoke(app, ["markers", str(ROOT / "missions" / "tank_0p6hz.yaml"), "--out", str(out)])
     assert res.exit_code == 0, res.output
     assert out.read_bytes().startswith(b"%PDF")
-    w_in, h_in = sheet_size_in(default_layout())
-    assert f"({w_in * 25.4:.0f} x {h_in * 25.4:.0f} mm" in res.output
+    plan = plan_pages(default_layout(), "a4")
+    assert f"sheet: {out}: {plan.describe()}; print at 100 % (actual size, no fit to page)" in res.output
     assert "150 mm" in res.output and "40 mm" in res.output
 
 

@@ -9,18 +9,32 @@ image, corners included.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
 
 from auvdock.camera.model import CameraModel, gray_image
+from auvdock.clock import Clock, wall_clock
 
-__all__ = ["IMAGE_SUFFIXES", "board_points", "calibrate", "find_corners", "image_sources"]
+__all__ = [
+    "IMAGE_SUFFIXES",
+    "MIN_VIEWS",
+    "NoVideoError",
+    "board_points",
+    "calibrate",
+    "collect_views",
+    "find_corners",
+    "image_sources",
+]
 
 #: File suffixes read as images by :func:`image_sources` (case-insensitive).
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
+
+#: Fewest board views :func:`calibrate` accepts by default.
+MIN_VIEWS = 5
 
 
 def _check_pattern(cols: int, rows: int) -> None:
@@ -69,7 +83,7 @@ def find_corners(image: np.ndarray, cols: int, rows: int) -> np.ndarray | None:
 
 
 def calibrate(
-    images: Iterable[np.ndarray], cols: int, rows: int, square_m: float, *, min_views: int = 5
+    images: Iterable[np.ndarray], cols: int, rows: int, square_m: float, *, min_views: int = MIN_VIEWS
 ) -> CameraModel:
     """Calibrate a camera from checkerboard images.
 
@@ -191,3 +205,151 @@ def _video_frames(cap: cv2.VideoCapture, every: int) -> Iterator[np.ndarray]:
             k += 1
     finally:
         cap.release()
+
+
+class NoVideoError(ValueError):
+    """:func:`collect_views`: no frame came from the live source within the wait."""
+
+
+def collect_views(
+    source: Any,
+    cols: int,
+    rows: int,
+    *,
+    views: int = 25,
+    wait_s: float = 30.0,
+    collect_s: float | None = None,
+    spacing_s: float = 0.5,
+    clock: Clock = wall_clock,
+    what: str = "the camera",
+    waiting_for: str | None = None,
+    say: Callable[[str], None] | None = None,
+    progress_every_s: float = 5.0,
+    poll_s: float = 0.1,
+) -> list[np.ndarray]:
+    """Board views from a live camera or stream, for :func:`calibrate`; every wait is on ``clock``.
+
+    Waits up to ``wait_s`` for the first frame, then keeps a frame that shows the whole board at most
+    every ``spacing_s`` until it has ``views`` of them, ``collect_s`` have passed since the first frame,
+    or no frame came for ``wait_s``. ``say`` gets a line when the wait starts, every ``progress_every_s``
+    while it waits (for the video, then for board views), when the video arrives and at each view.
+
+    Parameters
+    ----------
+    source : FrameSource
+        E.g. from :func:`auvdock.camera.video.open_source`. It is read without blocking (``read(0)``); the
+        waits between reads are ``clock.sleep`` of at most ``poll_s`` (so a :class:`auvdock.clock.SimClock`
+        runs them in simulated time).
+    cols, rows : int
+        Inner corners of the board.
+    views : int
+        Views wanted.
+    wait_s : float
+        Longest wait for the first frame, and longest gap between frames once the video runs, s.
+    collect_s : float, optional
+        Time for collecting the views, from the first frame, s (default ``60 + views``).
+    spacing_s : float
+        Shortest time between two kept views, s.
+    clock : Clock
+    what : str
+        The source in the messages, e.g. ``"UDP port 5600"``.
+    waiting_for : str, optional
+        What the progress lines wait for (default ``"video on <what>"``), e.g.
+        ``"the RTP/H.264 stream on UDP port 5600"``.
+    say : callable, optional
+        Gets the progress lines (default: none).
+
+    Returns
+    -------
+    list of ndarray
+        At least :data:`MIN_VIEWS` grayscale views (fewer than ``views`` if the time ran out or the video
+        stopped; ``say`` tells).
+
+    Raises
+    ------
+    NoVideoError
+        ``"no video arrived on <what> within <wait_s> s"``.
+    ValueError
+        Fewer than :data:`MIN_VIEWS` views, e.g. ``"only 2 board views (the whole 9x6 board in view) in
+        85 s of video (need 5)"`` or ``"... before the video stopped (no frame from <what> for 30 s) ..."``.
+    auvdock.camera.video.VideoSourceError
+        The source failed (its reader thread stopped on an error).
+    """
+    _check_pattern(cols, rows)
+    for name, v in (("wait_s", wait_s), ("spacing_s", spacing_s), ("poll_s", poll_s)):
+        if not (math.isfinite(v) and v > 0):
+            raise ValueError(f"{name}: must be > 0 s, got {v}")
+    tell = say or (lambda _line: None)
+    waiting_for = waiting_for or f"video on {what}"
+    collect_s = 60.0 + views if collect_s is None else collect_s
+
+    # 1. the first frame
+    t0 = clock.now()
+    deadline = t0 + wait_s
+    note = t0 + progress_every_s
+    tell(f"waiting up to {wait_s:g} s for {waiting_for}")
+    while True:
+        try:
+            frame = source.read(0.0)
+        except EOFError:
+            raise NoVideoError(f"{what} ended before its first frame") from None
+        if frame is not None:
+            break
+        now = clock.now()
+        if now >= deadline:
+            raise NoVideoError(f"no video arrived on {what} within {wait_s:g} s")
+        if now >= note:
+            tell(f"waiting for {waiting_for}: {now - t0:.0f} s of {wait_s:g} s")
+            note += progress_every_s
+        clock.sleep_until(min(now + poll_s, deadline, note))
+    h, w = frame.image.shape[:2]
+    tell(
+        f"video from {what}: {w}x{h} px; show the {cols}x{rows} board, tilted and all over the image "
+        f"({views} views, {spacing_s:g} s apart)"
+    )
+
+    # 2. the views
+    t1 = last_frame = clock.now()
+    deadline = t1 + collect_s
+    note = t1 + progress_every_s
+    images: list[np.ndarray] = []
+    last_view = -math.inf
+    stopped = ""
+    while True:
+        now = clock.now()
+        if frame is not None:
+            last_frame = now
+            if now - last_view >= spacing_s and find_corners(frame.image, cols, rows) is not None:
+                images.append(gray_image(frame.image))
+                last_view = now
+                note = now + progress_every_s
+                tell(f"board view {len(images)}/{views}")
+                if len(images) >= views:
+                    break
+        elif now >= last_frame + wait_s:
+            stopped = f"before the video stopped (no frame from {what} for {wait_s:g} s)"
+            break
+        if now >= deadline:
+            break
+        if now >= note:
+            tell(
+                f"board views: {len(images)}/{views} after {now - t1:.0f} s (the whole board must be in view)"
+            )
+            note += progress_every_s
+        if frame is None:
+            clock.sleep_until(min(now + poll_s, deadline, note, last_frame + wait_s))
+        try:
+            frame = source.read(0.0)
+        except EOFError:
+            stopped = f"before the video from {what} ended"
+            break
+    n = len(images)
+    if n < MIN_VIEWS:
+        when = stopped or f"in {clock.now() - t1:.0f} s of video"
+        raise ValueError(
+            f"only {n} board view{'' if n == 1 else 's'} (the whole {cols}x{rows} board in view) {when} "
+            f"(need {MIN_VIEWS})"
+        )
+    if n < views:
+        tell(f"{n} of {views} views {stopped or f'in {collect_s:g} s'}: calibrating with these")
+    return images

@@ -1,7 +1,9 @@
 """``auvdock markers`` and ``auvdock calibrate``: the dock's marker sheet and the camera file.
 
-A live calibration waits on :data:`clock` (the wall clock; a test may set a
-:class:`auvdock.clock.SimClock`, which paces video files and image folders too).
+``markers`` tiles the dock's panel at true scale over A4 or Letter pages (``--paper``), in the format the
+``--out`` suffix names (PDF, PNG, JPEG). A live calibration waits on :data:`clock` (the wall clock; a test
+may set a :class:`auvdock.clock.SimClock`): for the first frame at most ``--wait`` seconds, saying every 5 s
+what it waits for, then exits 2 with one line if no video came.
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ from rich import box
 from rich.table import Table
 
 from ..clock import Clock, wall_clock
-from .app import app, console, fail_input, load_or_exit
+from .app import app, console, exit_interrupted, fail_input, load_or_exit, output_dir
 
 #: The clock a live calibration waits on.
 clock: Clock = wall_clock
@@ -38,23 +40,63 @@ def _load_layout(path: Path):
     return load_or_exit(path).dock.marker_layout()
 
 
+def _say(line: str) -> None:
+    console.print(line, markup=False, highlight=False, soft_wrap=True)
+
+
+def _sheet_target(out: Path | None, layout: Path, pdf: bool) -> Path:
+    """The file ``--out`` names (default ``<layout>_markers.pdf/.png``), or exit 2 with one line: a
+    directory, a suffix that is not .pdf / .png / .jpg / .jpeg, a parent that cannot be a directory."""
+    from ..camera.layout import sheet_format
+
+    default = f"{layout.stem}_markers.{'pdf' if pdf else 'png'}"
+    target = out or Path(default)
+    try:
+        named, _ = sheet_format(target, pdf)
+    except ValueError as e:
+        if not target.is_dir():
+            fail_input(f"--out {target}: {e}")
+        named = target
+    for path in dict.fromkeys((target, named)):
+        if path.is_dir():
+            fail_input(f"--out {path}: is a directory (give a file name, e.g. {path / default})")
+    output_dir(named.parent, "--out")
+    return named
+
+
 @app.command()
 def markers(
     layout: Path = typer.Argument(
         ..., help="Mission file (its dock.markers, or the default layout) or layout YAML."
     ),
     out: Path | None = typer.Option(
-        None, "--out", "-o", help="Sheet file (default: <name>_markers.pdf/.png)."
+        None,
+        "--out",
+        "-o",
+        help="Sheet file; the suffix names the format: .pdf (all pages in one file), .png, .jpg or .jpeg "
+        "(one image per page, NAME-pageN.png when there are several). Default <name>_markers.pdf/.png.",
     ),
-    pdf: bool = typer.Option(True, "--pdf/--png", help="Printable PDF (default) or PNG."),
+    paper: str = typer.Option(
+        "a4",
+        "--paper",
+        help="Paper size, a4 or letter; the panel is tiled over as many pages as it needs, with crop marks "
+        "and page labels.",
+    ),
+    pdf: bool = typer.Option(True, "--pdf/--png", help="Format when --out has no suffix: PDF or PNG."),
 ) -> None:
-    """Print the dock's marker sheet at true scale (check the 100 mm bar after printing)."""
-    from ..camera.layout import sheet_size_in, write_sheet
+    """Print the dock's marker sheet at true scale on A4 or Letter (print at 100 %, check the 100 mm bar)."""
+    from ..camera.layout import PAPER_MM, plan_pages, write_pages
 
+    if paper.lower() not in PAPER_MM:
+        fail_input(f"--paper {paper}: expected {' or '.join(PAPER_MM)}")
     lay = _load_layout(layout)
-    target = out or Path(f"{layout.stem}_markers.{'pdf' if pdf else 'png'}")
-    written = write_sheet(lay, target, pdf=pdf)
-    w_in, h_in = sheet_size_in(lay)
+    target = _sheet_target(out, layout, pdf)
+    plan = plan_pages(lay, paper.lower())
+    try:
+        written = write_pages(lay, target, plan=plan)
+    except OSError as e:
+        fail_input(f"--out {e.filename or target}: cannot write ({e.strerror or e})")
+        raise AssertionError("unreachable") from None
     t = Table(title=f"{lay.dictionary} markers", box=box.SIMPLE)
     for col in ("id", "size", "position in the dock frame (m)", "rpy (deg)"):
         t.add_column(col)
@@ -66,7 +108,16 @@ def markers(
             ", ".join(f"{v:g}" for v in mk.rpy_deg),
         )
     console.print(t)
-    console.print(f"sheet: {written} ({w_in * 25.4:.0f} x {h_in * 25.4:.0f} mm; print at 100 %, no scaling)")
+    _say(
+        f"sheet: {', '.join(str(p) for p in written)}: {plan.describe()}; print at 100 % (actual size, "
+        "no fit to page) and check the 100 mm bar on each page"
+    )
+    if plan.split_ids:
+        ids = ", ".join(str(i) for i in plan.split_ids)
+        _say(
+            f"note: a page join crosses the black square of marker {ids} (no join could avoid it): "
+            "butt those pages together with care"
+        )
 
 
 def _parse_board(board: str) -> tuple[int, int]:
@@ -80,6 +131,20 @@ def _parse_board(board: str) -> tuple[int, int]:
     return cols, rows
 
 
+def _live_names(src: object) -> tuple[str, str, str]:
+    """(the source in messages, what its wait is for, a hint when no video came) of a live source."""
+    from ..camera.video import RtpSource, V4l2Source
+
+    if isinstance(src, RtpSource):
+        where = f"UDP port {src.port}" if src.host == "0.0.0.0" else f"UDP {src.host}:{src.port}"
+        hint = f"; is the camera streaming RTP/H.264 to this computer's port {src.port}?"
+        return where, f"the RTP/H.264 stream on {where}", hint
+    if isinstance(src, V4l2Source):
+        return src.path, f"frames from the camera {src.path}", ""
+    what = str(getattr(src, "description", "the source"))
+    return what, f"video from {what}", ""
+
+
 @app.command()
 def calibrate(
     source: str = typer.Argument(
@@ -89,13 +154,24 @@ def calibrate(
     square: float = typer.Option(..., "--square", min=1e-4, help="Checkerboard square side, m."),
     out: Path = typer.Option(Path("camera.yaml"), "--out", "-o", help="Camera file to write."),
     frames: int = typer.Option(
-        25, "--frames", min=5, help="Live camera: board views to collect (0.5 s apart)."
+        25,
+        "--frames",
+        min=5,
+        help="Live camera: board views to collect (0.5 s apart; collection stops 60 s + 1 s per view after "
+        "the first frame, and calibrates if it has at least 5).",
+    ),
+    wait: float = typer.Option(
+        30.0,
+        "--wait",
+        min=0.1,
+        help="Live camera: longest wait, s, for the first frame (a line every 5 s says what it waits for; "
+        "then exit 2), and for the next one once the video runs.",
     ),
     every: int = typer.Option(1, "--every", min=1, help="Video file: use every Nth frame."),
 ) -> None:
     """OpenCV checkerboard calibration: writes the camera file missions point to (camera.calibration)."""
+    from ..camera.calibration import NoVideoError, collect_views, image_sources
     from ..camera.calibration import calibrate as run_calibration
-    from ..camera.calibration import find_corners, image_sources
     from ..camera.model import save_camera
 
     cols, rows = _parse_board(board)
@@ -106,24 +182,33 @@ def calibrate(
         except ValueError as e:
             fail_input(str(e))
     else:
-        from ..camera.video import open_source
+        from ..camera.video import VideoSourceError, open_source
 
         try:
             src = open_source(source, clock=clock)
         except (OSError, ValueError, RuntimeError) as e:
             fail_input(f"{source}: {e}")
             raise AssertionError("unreachable") from None
-        last = 0.0
-        with src, console.status(f"collecting {frames} views of the {cols}x{rows} board from {source}") as st:
-            deadline = clock.now() + 60.0 + frames
-            while len(images) < frames and clock.now() < deadline:
-                f = src.read(timeout_s=1.0)
-                if f is None or f.t_capture - last < 0.5:
-                    continue
-                if find_corners(f.image, cols, rows) is not None:
-                    images.append(f.image)
-                    last = f.t_capture
-                    st.update(f"board views: {len(images)}/{frames}")
+        what, waiting_for, hint = _live_names(src)
+        with src:
+            try:
+                images = collect_views(
+                    src,
+                    cols,
+                    rows,
+                    views=frames,
+                    wait_s=wait,
+                    clock=clock,
+                    what=what,
+                    waiting_for=waiting_for,
+                    say=_say,
+                )
+            except NoVideoError as e:
+                fail_input(f"{source}: {e} (--wait {wait:g}){hint}")
+            except (ValueError, VideoSourceError) as e:
+                fail_input(f"{source}: {e}")
+            except KeyboardInterrupt:
+                exit_interrupted("interrupted: no camera file written")
     try:
         cam = run_calibration(images, cols, rows, square)
     except ValueError as e:
