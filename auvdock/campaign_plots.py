@@ -42,6 +42,7 @@ __all__ = [
     "CONTROLLER_COLORS",
     "CONTROLLER_LABELS",
     "FIGURE_NAMES",
+    "campaign_figures",
     "controller_color",
     "controller_label",
     "plot_campaign",
@@ -80,12 +81,16 @@ FIGURE_NAMES: tuple[str, ...] = (
 # (zlib.crc32, not hash(): that one is salted per process).  None equals a fixed colour.
 _FALLBACK_COLORS: tuple[str, ...] = ("#56B4E9", "#8C564B", "#7F7F7F", "#BCBD22", "#17BECF", "#332288")
 
-_LOG_SPAN = 30.0  # fig5 switches to a log y-axis when max / min of the values exceeds this
 _NOT_DOCKED_HATCH = "////"
 _NOT_DOCKED_ALPHA = 0.35
 _NOTE_FONTSIZE = 6.5
 _MAX_BAR_WIDTH = 0.2  # bar width in units of the case spacing (few controllers: no fat bars)
 _CHAR_WIDTH_IN = 0.06  # rough width of one character of a "small" tick label, inches
+# width of a "small" legend: frame padding, plus per column a handle with its gaps and the
+# longest label's characters (measured with matplotlib's default font, rounded up), inches
+_LEGEND_PAD_IN = 0.3
+_LEGEND_ENTRY_IN = 0.65
+_LEGEND_CHAR_IN = 0.065
 
 
 def controller_color(name: str) -> str:
@@ -119,31 +124,39 @@ def plot_campaign(
     ``formats``:
 
     * ``fig2_trajectories`` -- one top-view panel per case (east horizontal, north
-      vertical, metres, equal aspect): every controller's path in its colour, the start
-      (open black circle), the dock's recorded path with its final position (gold star)
-      and the docking tolerance circle (run attribute ``tolerance_m``), and the end of
-      each path (filled circle if docked, cross if not).  Panel titles are the case
-      labels; one legend for the figure.
+      vertical, metres, equal aspect): every controller's path in its colour and line
+      style (later controllers thinner and dashed, so coinciding paths both show; paths
+      within 1 % of the panel's span of each other are named below the panel as "same
+      path"), the start (open black circle), the dock's recorded path with its final
+      position (gold star) and the docking tolerance circle (run attribute
+      ``tolerance_m``), and the end of each path (filled circle if docked, cross if not).
+      With a tolerance, an inset in the panel's emptiest corner zooms on the dock (three
+      tolerance radii), where the circle and the path ends can be seen.  Panel titles are
+      the case labels; one legend for the figure, below the panels, in as many columns as
+      fit its width.
     * ``fig3_travel_time`` -- grouped bars of ``time_to_dock_s`` (s).  A run that did not
       dock gets a hatched, faded bar up to its ``timeout_s`` (``end_time_s`` if that is
-      not finite), annotated "timeout"; a failed run gets no bar but a "failed" mark.
+      not finite), annotated with why and when it ended ("timed out 75 s", from ``reason``
+      and ``end_time_s``); a failed run gets no bar but a "failed" mark.
     * ``fig4_path_length`` -- grouped bars of ``path_length_m`` (m), same conventions
-      (hatched if not docked, "failed" mark for failed runs).
-    * ``fig5_flow_rmse`` -- grouped bars of ``flow_rmse_m_s`` (m/s) for the controllers
-      with a finite value in some record (the flow-state-estimating ones), log y-axis if
-      the values span more than a factor of 30.  Without any such value the figure holds
-      a note "no flow-estimating controller in this campaign".
+      (hatched and annotated if not docked, "failed" mark for failed runs).
+    * ``fig5_flow_rmse`` -- grouped bars of ``flow_rmse_m_s`` (m/s) on a linear axis, each
+      labelled with its value, for the controllers with a finite value in some record
+      (the flow-state-estimating ones); runs that did not dock are hatched and annotated
+      like fig3 (their RMSE is over the whole run, up to the timeout, so not comparable
+      with docked runs').  Without any such value the figure holds a note "no
+      flow-estimating controller in this campaign".
 
     Parameters
     ----------
     records : sequence of dict
         The campaign table, one dict per run, with keys ``case`` (mission name),
         ``case_label``, ``controller``, ``status`` (``"done"`` or ``"failed"``),
-        ``error``, ``docked``, ``time_to_dock_s`` (s, NaN if not docked), ``end_time_s``
-        (s), ``timeout_s`` (s), ``path_length_m`` (m), ``flow_rmse_m_s`` (m/s, NaN without
-        an estimator) and more that are not plotted.  Cases are shown in the order of their
-        first record; controllers in :data:`CONTROLLER_ORDER` first, then any others in
-        the order of their first record.
+        ``error``, ``docked``, ``reason`` (optional), ``time_to_dock_s`` (s, NaN if not
+        docked), ``end_time_s`` (s), ``timeout_s`` (s), ``path_length_m`` (m),
+        ``flow_rmse_m_s`` (m/s, NaN without an estimator) and more that are not plotted.
+        Cases are shown in the order of their first record; controllers in
+        :data:`CONTROLLER_ORDER` first, then any others in the order of their first record.
     runs : mapping of (case, controller) -> RunResults
         The runs' recorded trajectories for ``fig2_trajectories``; runs may be missing
         (e.g. failed ones), they are then left out of the map.
@@ -173,25 +186,7 @@ def plot_campaign(
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
 
-    makers: tuple[Callable[[], Figure], ...] = (
-        lambda: _trajectories_figure(table, runs),
-        lambda: _bars_figure(
-            table,
-            value=_travel_time,
-            ylabel="time to dock [s]",
-            title="Time to dock",
-            hatch_label="not docked (bar = timeout)",
-            annotate_not_docked="timeout",
-        ),
-        lambda: _bars_figure(
-            table,
-            value=lambda rec: _num(rec.get("path_length_m")),
-            ylabel="path length [m]",
-            title="Vehicle path length",
-            hatch_label="not docked",
-        ),
-        _flow_rmse_maker(table),
-    )
+    makers = _figure_makers(table, runs)
     paths: list[Path] = []
     for name, make in zip(FIGURE_NAMES, makers, strict=True):
         fig = make()
@@ -203,6 +198,48 @@ def plot_campaign(
         finally:
             fig.clear()
     return paths
+
+
+def campaign_figures(
+    records: Sequence[Mapping[str, Any]], runs: Mapping[tuple[str, str], RunResults]
+) -> list[tuple[str, Figure]]:
+    """The figures :func:`plot_campaign` saves, built but not saved: ``(name, Figure)``.
+
+    Names are :data:`FIGURE_NAMES`, in that order; arguments as :func:`plot_campaign`.
+
+    Raises
+    ------
+    ValueError
+        If ``records`` is empty.
+    """
+    if not records:
+        raise ValueError("cannot plot a campaign without records (the campaign table is empty)")
+    makers = _figure_makers(_Table(records), runs)
+    return [(name, make()) for name, make in zip(FIGURE_NAMES, makers, strict=True)]
+
+
+def _figure_makers(
+    table: _Table, runs: Mapping[tuple[str, str], RunResults]
+) -> tuple[Callable[[], Figure], ...]:
+    """One figure builder per name of :data:`FIGURE_NAMES` (built one at a time when saving)."""
+    return (
+        lambda: _trajectories_figure(table, runs),
+        lambda: _bars_figure(
+            table,
+            value=_travel_time,
+            ylabel="time to dock [s]",
+            title="Time to dock",
+            hatch_label="not docked (bar = the timeout)",
+        ),
+        lambda: _bars_figure(
+            table,
+            value=lambda rec: _num(rec.get("path_length_m")),
+            ylabel="path length [m]",
+            title="Vehicle path length",
+            hatch_label="did not dock: path up to the run's end",
+        ),
+        _flow_rmse_maker(table),
+    )
 
 
 # ----------------------------------------------------------------------------- table
@@ -336,10 +373,67 @@ _TRAJECTORY_MARKS: dict[str, dict[str, Any]] = {
     "end (not docked)": {"ls": "", "marker": "X", "ms": 8, "mfc": "0.45", "mec": "k", "mew": 0.8},
 }
 
+# Line style of each controller's path in fig2: where paths coincide, the later controller's
+# dashes (drawn on top, thinner) let the earlier one show through.
+_CONTROLLER_LINESTYLES: dict[str, Any] = {
+    "naive": "-",
+    "kinematic": "-",
+    "oracle": (0, (5, 2)),
+    "sequential": (0, (1, 1.5)),
+    "optimized": (0, (6, 2, 1, 2)),
+}
+_FALLBACK_LINESTYLES: tuple[Any, ...] = ((0, (3, 1, 1, 1)), (0, (8, 2)), (0, (2, 2)), "-")
+_PATH_WIDTHS: tuple[float, ...] = (3.4, 2.6, 2.0, 1.6, 1.3)  # by drawing order (later: thinner)
+_SAME_PATH_FRACTION = 0.01  # paths closer than this fraction of the panel's span count as one
+_INSET_SIZE = 0.38  # the dock inset's side, fraction of the panel
+_INSET_TOLERANCES = 3.0  # the dock inset shows this many tolerance radii around the dock
+
+
+def _controller_linestyle(name: str, index: int) -> Any:
+    """Line style of controller ``name`` (``index``: its position among the campaign's controllers)."""
+    if name in _CONTROLLER_LINESTYLES:
+        return _CONTROLLER_LINESTYLES[name]
+    return _FALLBACK_LINESTYLES[index % len(_FALLBACK_LINESTYLES)]
+
+
+def _path_width(index: int) -> float:
+    return _PATH_WIDTHS[min(index, len(_PATH_WIDTHS) - 1)]
+
+
+def _resample_path(p: np.ndarray, n: int = 200) -> np.ndarray:
+    """``n`` points evenly spaced by arc length along the polyline ``p`` (k, 2)."""
+    if p.shape[0] < 2:
+        return np.repeat(p[:1], n, axis=0)
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(p, axis=0), axis=1))])
+    if s[-1] <= 0.0:
+        return np.repeat(p[:1], n, axis=0)
+    t = np.linspace(0.0, s[-1], n)
+    return np.stack([np.interp(t, s, p[:, 0]), np.interp(t, s, p[:, 1])], axis=1)
+
+
+def _path_distance(a: np.ndarray, b: np.ndarray) -> float:
+    """Symmetric Hausdorff distance between two polylines (k, 2), m, on arc-length resamples."""
+    ra, rb = _resample_path(a), _resample_path(b)
+    d = np.linalg.norm(ra[:, None, :] - rb[None, :, :], axis=2)
+    return float(max(d.min(axis=1).max(), d.min(axis=0).max()))
+
+
+def _same_path_groups(paths: dict[str, np.ndarray], tol: float) -> list[list[str]]:
+    """Groups (two or more) of controllers whose paths (k, 2) lie within ``tol`` m of the group's first."""
+    groups: list[list[str]] = []
+    for name, p in paths.items():
+        for g in groups:
+            if _path_distance(paths[g[0]], p) <= tol:
+                g.append(name)
+                break
+        else:
+            groups.append([name])
+    return [g for g in groups if len(g) > 1]
+
 
 def _trajectories_figure(table: _Table, runs: Mapping[tuple[str, str], RunResults]) -> Figure:
     rows, cols = _grid_shape(len(table.cases))
-    fig = _new_figure((0.5 + 3.9 * cols, 1.3 + 3.6 * rows))
+    fig = _new_figure((max(7.0, 0.5 + 3.9 * cols), 1.3 + 3.6 * rows))
     axes = np.atleast_1d(fig.subplots(rows, cols, squeeze=False)).ravel()
     plotted: set[str] = set()
     marks: set[str] = set()
@@ -349,16 +443,86 @@ def _trajectories_figure(table: _Table, runs: Mapping[tuple[str, str], RunResult
         ax.set_visible(False)
 
     ctrl_handles: list[Any] = [
-        Line2D([], [], color=controller_color(c), lw=2.0, label=controller_label(c))
-        for c in table.controllers
+        Line2D(
+            [],
+            [],
+            color=controller_color(c),
+            lw=2.0,
+            ls=_controller_linestyle(c, i),
+            label=controller_label(c),
+        )
+        for i, c in enumerate(table.controllers)
         if c in plotted
     ]
     mark_handles: list[Any] = [
         Line2D([], [], label=name, **style) for name, style in _TRAJECTORY_MARKS.items() if name in marks
     ]
-    _legend_rows(fig, [ctrl_handles, mark_handles])
+    legend_rows = _legend_rows(fig, [ctrl_handles, mark_handles])
+    # room for the legend's rows beyond two and the "same path" notes under the panels
+    note_lines = sum(
+        max((ax.get_xlabel().count("\n") for ax in axes[r * cols : (r + 1) * cols]), default=0)
+        for r in range(rows)
+    )
+    fig.set_figheight(fig.get_figheight() + 0.2 * max(legend_rows - 2, 0) + 0.17 * note_lines)
     fig.suptitle("Docking trajectories, top view (north-east)", fontsize="large")
     return fig
+
+
+class _PanelContent:
+    """What one fig2 panel shows, so the panel and its dock inset draw the same things."""
+
+    def __init__(self) -> None:
+        self.paths: list[
+            tuple[str, np.ndarray, bool, int]
+        ] = []  # controller, (k, 2) east-north, docked, index
+        self.starts: list[np.ndarray] = []
+        self.dock: np.ndarray | None = None  # (T', 3) NED m
+        self.tolerance = math.nan
+
+    def draw(self, ax: Axes, marks: set[str] | None = None, *, small: bool = False) -> None:
+        """Draw on ``ax`` (``small``: thinner lines, smaller marks: the inset); add marks to ``marks``."""
+        thin = 0.75 if small else 1.0
+        for ctrl, p, docked, z in self.paths:
+            color = controller_color(ctrl)
+            ax.plot(
+                p[:, 0], p[:, 1], color=color, lw=_path_width(z) * thin, ls=_controller_linestyle(ctrl, z),
+                alpha=0.95, solid_capstyle="round", dash_capstyle="butt", zorder=3 + 0.01 * z,
+                gid=f"path {ctrl}",
+            )  # fmt: skip
+            end = "end (docked)" if docked else "end (not docked)"
+            style = _TRAJECTORY_MARKS[end]
+            ax.plot(p[-1, 0], p[-1, 1], zorder=6, **{**style, "mfc": color, "ms": style["ms"] * thin})
+            if marks is not None:
+                marks.add(end)
+        if self.starts:
+            uniq = np.unique(np.round(np.array(self.starts), 6), axis=0)
+            ax.plot(uniq[:, 0], uniq[:, 1], zorder=7, **_TRAJECTORY_MARKS["start"])
+            if marks is not None:
+                marks.add("start")
+        if self.dock is not None:
+            # the dock heaves, so its recorded path is (nearly) a point in the top view
+            ax.plot(self.dock[:, 1], self.dock[:, 0], color="k", lw=3.0, solid_capstyle="round", zorder=4)
+            final = self.dock[-1]
+            style = _TRAJECTORY_MARKS["dock"]
+            ax.plot(final[1], final[0], zorder=8, **{**style, "ms": style["ms"] * thin})
+            if marks is not None:
+                marks.add("dock")
+            if math.isfinite(self.tolerance) and self.tolerance > 0.0:
+                ax.add_patch(
+                    Circle(
+                        (final[1], final[0]), self.tolerance, fill=False, ls="--", lw=1.2, ec="0.25",
+                        zorder=9, gid="docking tolerance",
+                    )
+                )  # fmt: skip
+                if marks is not None:
+                    marks.add("docking tolerance")
+
+    def points(self) -> np.ndarray:
+        """Every drawn point (k, 2), east-north m."""
+        pts = [p for _, p, _, _ in self.paths] + [s[None, :] for s in self.starts]
+        if self.dock is not None:
+            pts.append(self.dock[:, [1, 0]])
+        return np.concatenate(pts) if pts else np.empty((0, 2))
 
 
 def _trajectory_panel(
@@ -370,9 +534,7 @@ def _trajectory_panel(
     marks: set[str],
 ) -> None:
     """Draw one case's panel; adds the controllers drawn to ``plotted`` and the marks drawn to ``marks``."""
-    starts: list[np.ndarray] = []
-    dock: np.ndarray | None = None  # (T', 3) finite rows of the first recorded dock path, NED m
-    tolerance = math.nan
+    content = _PanelContent()
     missing: list[str] = []
     for z, ctrl in enumerate(table.controllers):
         rec = table.get(case, ctrl)
@@ -383,40 +545,23 @@ def _trajectory_panel(
             if rec is not None:
                 missing.append(f"{controller_label(ctrl)}: {'failed' if _failed(rec) else 'no data'}")
             continue
-        color = controller_color(ctrl)
-        east, north = pos[:, 1], pos[:, 0]
-        # later controllers on top but thinner, so identical paths (e.g. in still water) stay visible
-        lw = max(3.0 - 0.45 * z, 1.2)
-        ax.plot(east, north, color=color, lw=lw, alpha=0.9, solid_capstyle="round", zorder=3 + 0.01 * z)
-        plotted.add(ctrl)
-        starts.append(np.array([east[0], north[0]]))
         docked = _docked(rec) if rec is not None else run.attrs.get("docked") is True
-        end = "end (docked)" if docked else "end (not docked)"
-        style = {**_TRAJECTORY_MARKS[end], "mfc": color}
-        ax.plot(east[-1], north[-1], zorder=6, **style)
-        marks.add(end)
-        if dock is None:
+        content.paths.append((ctrl, pos[:, [1, 0]], docked, z))
+        content.starts.append(pos[0, [1, 0]])
+        plotted.add(ctrl)
+        if content.dock is None:
             d = np.asarray(run.dock_position_m, dtype=float)
             d = d[_finite_rows(d)]
-            dock = d if d.shape[0] else None
-        if not math.isfinite(tolerance):
-            tolerance = _num(run.attrs.get("tolerance_m"))
+            content.dock = d if d.shape[0] else None
+        if not math.isfinite(content.tolerance):
+            content.tolerance = _num(run.attrs.get("tolerance_m"))
+    content.draw(ax, marks)
 
-    if starts:
-        uniq = np.unique(np.round(np.array(starts), 6), axis=0)
-        ax.plot(uniq[:, 0], uniq[:, 1], zorder=7, **_TRAJECTORY_MARKS["start"])
-        marks.add("start")
-    if dock is not None:
-        # the dock heaves, so its recorded path is (nearly) a point in the top view
-        ax.plot(dock[:, 1], dock[:, 0], color="k", lw=3.0, solid_capstyle="round", zorder=4)
-        final = dock[-1]
-        ax.plot(final[1], final[0], zorder=8, **_TRAJECTORY_MARKS["dock"])
-        marks.add("dock")
-        if math.isfinite(tolerance) and tolerance > 0.0:
-            ax.add_patch(
-                Circle((final[1], final[0]), tolerance, fill=False, ls="--", lw=1.0, ec="0.25", zorder=9)
-            )
-            marks.add("docking tolerance")
+    pts = content.points()
+    span = float(np.max(np.ptp(pts, axis=0))) if pts.shape[0] else 0.0
+    same = _same_path_groups({c: p for c, p, _, _ in content.paths}, _SAME_PATH_FRACTION * span)
+    if content.dock is not None and math.isfinite(content.tolerance) and content.tolerance > 0.0:
+        _dock_inset(ax, content, pts, lower_left=not missing)
 
     if missing:
         ax.text(
@@ -424,9 +569,14 @@ def _trajectory_panel(
             va="bottom", ha="left", zorder=9,
             bbox={"boxstyle": "round,pad=0.25", "fc": "white", "ec": "0.7", "alpha": 0.85},
         )  # fmt: skip
-    if not starts and dock is None:
+    if not content.paths and content.dock is None:
         ax.text(0.5, 0.5, "no trajectories recorded", transform=ax.transAxes, ha="center", color="0.4")
-    ax.set_xlabel("east [m]")
+    xlabel = "east [m]"
+    for g in same:  # below the map, so the note hides nothing
+        names = " = ".join(controller_label(c) for c in g)
+        note = f"same path (within {_SAME_PATH_FRACTION * span * 100:.0f} cm): {names}"
+        xlabel += "\n" + textwrap.fill(note, 50)
+    ax.set_xlabel(xlabel, fontsize="small" if same else None)
     ax.set_ylabel("north [m]")
     ax.set_aspect("equal", adjustable="datalim")
     ax.margins(0.08)
@@ -434,7 +584,59 @@ def _trajectory_panel(
     ax.set_title(_wrap_label(table.case_labels[case], 46), fontsize="medium")
 
 
+def _emptiest_corner(pts: np.ndarray, *, lower_left: bool = True) -> tuple[float, float]:
+    """Lower-left corner (axes fraction) of the inset in the panel corner with the fewest of ``pts``.
+
+    The points (k, 2) are mapped onto the data box with the panel's 8 % margins (the equal
+    aspect only widens the box, which leaves the corners emptier); ties go to lower right.
+    Upper corners leave room for the inset's title; ``lower_left=False`` keeps that corner
+    free (for the "failed" notes).
+    """
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    span = np.maximum(hi - lo, 1e-9)
+    f = ((pts - lo) / span + 0.08) / 1.16  # axes fraction with margins 0.08 on each side
+    size, low, high, left, right = _INSET_SIZE, 0.03, 1.0 - 0.09 - _INSET_SIZE, 0.03, 0.97 - _INSET_SIZE
+    corners = [(right, low), (left, high), (right, high)] + ([(left, low)] if lower_left else [])
+    counts = [
+        int(np.sum((f[:, 0] >= x - 0.02) & (f[:, 0] <= x + size + 0.02) & (f[:, 1] >= y - 0.02)
+                   & (f[:, 1] <= y + size + 0.09)))
+        for x, y in corners
+    ]  # fmt: skip
+    return corners[int(np.argmin(counts))]
+
+
+def _dock_inset(ax: Axes, content: _PanelContent, pts: np.ndarray, *, lower_left: bool = True) -> Axes:
+    """A zoom on the dock (``_INSET_TOLERANCES`` tolerance radii around it), in the emptiest corner."""
+    assert content.dock is not None
+    x0, y0 = _emptiest_corner(pts, lower_left=lower_left)
+    inset = ax.inset_axes((x0, y0, _INSET_SIZE, _INSET_SIZE), zorder=10)
+    content.draw(inset, small=True)
+    final = content.dock[-1]
+    r = _INSET_TOLERANCES * content.tolerance
+    inset.set_xlim(final[1] - r, final[1] + r)
+    inset.set_ylim(final[0] - r, final[0] + r)
+    inset.set_aspect("equal", adjustable="box")
+    inset.set_xticks([])
+    inset.set_yticks([])
+    inset.set_facecolor((1.0, 1.0, 1.0, 0.92))
+    inset.set_title(f"dock ±{r * 100:.0f} cm", fontsize="x-small", pad=2)
+    inset.set_gid("dock inset")
+    return inset
+
+
 # ----------------------------------------------------------------------------- bar figures
+
+
+def _not_docked_note(rec: Mapping[str, Any]) -> str:
+    """Why a done run has no docking, for the bar annotations: "timed out 75 s", "diverged 12 s"..."""
+    reason = str(rec.get("reason") or "")
+    end, timeout = _num(rec.get("end_time_s")), _num(rec.get("timeout_s"))
+    if not reason or reason == "docked":  # older tables: infer the timeout from the times
+        reason = "timeout" if math.isfinite(end) and math.isfinite(timeout) and end >= timeout - 1e-6 else ""
+    text = "timed out" if reason == "timeout" else (reason or "not docked")
+    if math.isfinite(end):
+        text += f" {end:.3g} s"
+    return text
 
 
 def _flow_rmse_maker(table: _Table) -> Callable[[], Figure]:
@@ -443,16 +645,14 @@ def _flow_rmse_maker(table: _Table) -> Callable[[], Figure]:
     fse = [c for c in table.controllers if any(math.isfinite(v) for (_, k), v in rmse.items() if k == c)]
     if not fse:
         return _no_flow_figure
-    finite = np.array([v for v in rmse.values() if math.isfinite(v) and v > 0.0])
-    log = finite.size > 0 and float(finite.max()) > _LOG_SPAN * float(finite.min())
     return lambda: _bars_figure(
         table,
         value=lambda rec: _num(rec.get("flow_rmse_m_s")),
         ylabel="flow estimate RMSE [m/s]",
-        title="Flow estimate RMSE",
-        hatch_label="not docked",
+        title="Flow estimate RMSE (over each whole run)",
+        hatch_label="did not dock: RMSE over the whole run up to its end,\nnot comparable with docked runs",
         controllers=fse,
-        log=log,
+        value_labels=True,
     )
 
 
@@ -477,15 +677,15 @@ def _bars_figure(
     ylabel: str,
     title: str,
     hatch_label: str,
-    annotate_not_docked: str | None = None,
     controllers: list[str] | None = None,
-    log: bool = False,
+    value_labels: bool = False,
 ) -> Figure:
-    """Grouped bars: one group per case, one bar per controller, ``value(record)`` high.
+    """Grouped bars on a linear axis: one group per case, one bar per controller, ``value(record)`` high.
 
-    Docked runs: solid bar.  Not docked: faded, hatched bar (annotated above with
-    ``annotate_not_docked`` if given).  Failed runs: no bar, a "failed" mark at the base.
-    A done run whose value is not finite gets an "n/a" mark.
+    Docked runs: solid bar.  Not docked: faded, hatched bar annotated above with why and
+    when it ended (:func:`_not_docked_note`, e.g. "timed out 75 s").  Failed runs: no bar,
+    a "failed" mark at the base.  A done run whose value is not finite gets an "n/a" mark.
+    ``value_labels``: every bar is also labelled with its value.
     """
     ctrls = list(table.controllers if controllers is None else controllers)
     n_cases, n_ctrl = len(table.cases), max(len(ctrls), 1)
@@ -515,7 +715,7 @@ def _bars_figure(
                 any_failed = True
                 continue
             h = value(rec)
-            if not math.isfinite(h) or (log and h <= 0.0):
+            if not math.isfinite(h):
                 ax.text(
                     x, 0.02, "n/a", transform=base, rotation=90, ha="center", va="bottom",
                     fontsize=_NOTE_FONTSIZE, color="0.35",
@@ -523,19 +723,24 @@ def _bars_figure(
                 any_na = True
                 continue
             heights.append(h)
+            note = f"{h:.3g}" if value_labels else ""
             if _docked(rec):
-                ax.bar(x, h, width, color=color, edgecolor="k", linewidth=0.6, zorder=3)
+                ax.bar(
+                    x, h, width, color=color, edgecolor="k", linewidth=0.6, zorder=3, gid=f"bar {case} {ctrl}"
+                )
             else:
                 ax.bar(
                     x, h, width, color=to_rgba(color, _NOT_DOCKED_ALPHA), edgecolor=color,
-                    hatch=_NOT_DOCKED_HATCH, linewidth=1.0, zorder=3,
+                    hatch=_NOT_DOCKED_HATCH, linewidth=1.0, zorder=3, gid=f"bar {case} {ctrl} not docked",
                 )  # fmt: skip
                 any_hatched = True
-                if annotate_not_docked:
-                    ax.annotate(
-                        annotate_not_docked, (x, h), xytext=(0, 2), textcoords="offset points", rotation=90,
-                        ha="center", va="bottom", fontsize=_NOTE_FONTSIZE, color="0.25", zorder=4,
-                    )  # fmt: skip
+                note = f"{note}  {_not_docked_note(rec)}" if note else _not_docked_note(rec)
+            if note:
+                ax.annotate(
+                    note, (x, h), xytext=(0, 2), textcoords="offset points", rotation=90,
+                    ha="center", va="bottom", fontsize=_NOTE_FONTSIZE, color="0.25", zorder=4,
+                    gid="bar note",
+                )  # fmt: skip
 
     ax.set_xticks(np.arange(n_cases))
     chars = max(12, int((fig.get_figwidth() - 1.2) / max(n_cases, 1) / _CHAR_WIDTH_IN))
@@ -545,14 +750,8 @@ def _bars_figure(
     for i in range(1, n_cases):
         ax.axvline(i - 0.5, color="0.85", lw=0.8, zorder=1)
     top = max(heights) if heights else 1.0
-    if log:
-        ax.set_yscale("log")
-        positive = [h for h in heights if h > 0.0]
-        lo = min(positive) if positive else 1e-3
-        ax.set_ylim(lo / 2.0, top * 2.0)
-    else:
-        # head room for the rotated notes above the bars
-        ax.set_ylim(0.0, top * (1.18 if annotate_not_docked and any_hatched else 1.08) if top > 0 else 1.0)
+    # head room for the rotated notes above the bars
+    ax.set_ylim(0.0, top * (1.3 if any_hatched or value_labels else 1.08) if top > 0 else 1.0)
     ax.set_ylabel(ylabel)
     ax.grid(True, axis="y", which="both", alpha=0.3, zorder=0)
     ax.set_axisbelow(True)
@@ -576,20 +775,36 @@ def _bars_figure(
     return fig
 
 
-def _legend_rows(fig: Figure, groups: list[list[Any]], max_cols: int = 6) -> None:
-    """One figure legend below the axes, each non-empty group of handles starting a new row.
+def _legend_rows(fig: Figure, groups: list[list[Any]], max_cols: int = 6) -> int:
+    """One figure legend below the axes, each non-empty group of handles starting a new row; returns its rows.
 
-    Matplotlib fills legend columns top to bottom, so the handles are laid out row-major
-    and padded with invisible entries to get that.
+    As many columns (at most ``max_cols``) as fit the figure's width, estimated from the
+    longest label of each column.  Matplotlib fills legend columns top to bottom, so the
+    handles are laid out row-major and padded with invisible entries to get that.
     """
     groups = [g for g in groups if g]
     if not groups:
-        return
+        return 0
+
+    def layout(ncols: int) -> list[list[Any]]:
+        rows: list[list[Any]] = []
+        for group in groups:
+            for start in range(0, len(group), ncols):
+                row = group[start : start + ncols]
+                rows.append(row + [Line2D([], [], ls="", label=" ")] * (ncols - len(row)))
+        return rows
+
+    def width_in(rows: list[list[Any]]) -> float:
+        chars = [
+            max(len(line) for r in rows for line in str(r[c].get_label()).split("\n"))
+            for c in range(len(rows[0]))
+        ]
+        return _LEGEND_PAD_IN + sum(_LEGEND_ENTRY_IN + _LEGEND_CHAR_IN * n for n in chars)
+
     ncols = min(max(len(g) for g in groups), max_cols)
-    rows: list[list[Any]] = []
-    for group in groups:
-        for start in range(0, len(group), ncols):
-            row = group[start : start + ncols]
-            rows.append(row + [Line2D([], [], ls="", label=" ")] * (ncols - len(row)))
+    while ncols > 1 and width_in(layout(ncols)) > fig.get_figwidth() - 0.2:
+        ncols -= 1
+    rows = layout(ncols)
     column_major = [rows[r][c] for c in range(ncols) for r in range(len(rows))]
     fig.legend(handles=column_major, loc="outside lower center", ncols=ncols, fontsize="small")
+    return len(rows)

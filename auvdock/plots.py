@@ -18,15 +18,32 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from matplotlib.quiver import Quiver
+from matplotlib.ticker import MaxNLocator
 
 from auvdock.results import RunResults
 from auvdock.vehicle.state import POS
 
-__all__ = ["plot_run", "FlowFieldLike"]
+__all__ = ["plot_run", "run_figures", "thrust_limits_of", "FlowFieldLike"]
 
 _GRID_ARROWS = 17  # quiver arrows along the longer side of the top view's grid
 _PATH_ARROWS = 20  # recorded-flow arrows along the path when no flow field is given
 _BODY_AXES = ("body x (surge)", "body y (sway)", "body z (heave)")
+
+# 3-D view: every axis is shown over at least this span (m), and at least this fraction of
+# the largest data span, so a degenerate axis (a 2-D path: east spans 1e-17 m) is drawn as a
+# short stretch of empty space at the common scale, not blown up to fill the box.
+_MIN_SPAN_M = 0.2
+_MIN_SPAN_FRACTION = 0.25
+_SPAN_MARGIN = 0.05  # margin on each side of every 3-D axis, fraction of the largest span
+
+# Top view: the reference arrow of the quiver key is a "nice" speed (1, 2 or 5 x 10^k m/s),
+# the smallest not below the strongest current; it is drawn this fraction of a grid step long.
+_KEY_FRACTION = 0.9
+
+# Thrust plot: series equal within this (N) are drawn as one line labelled "T1 = T2".
+_SAME_THRUST_N = 1e-6
+_THRUST_STYLES: tuple[Any, ...] = ("-", "--", "-.", ":", (0, (5, 1)), (0, (3, 1, 1, 1, 1, 1)), (0, (1, 3)))
 
 
 class FlowFieldLike(Protocol):
@@ -44,19 +61,26 @@ def plot_run(
     prefix: str = "",
     flow_field: FlowFieldLike | None = None,
     dpi: int = 120,
+    thrust_limits: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> list[Path]:
     """Draw the standard figures of one run and save them as PNG files.
 
     Always written (names prefixed with ``prefix``):
 
     * ``trajectory_3d.png`` -- 3-D vehicle path (start and end marked) and the dock's
-      recorded heave path; axes east, north, down (drawn downwards).
+      recorded heave path; axes east, north, down (drawn downwards), all three at the same
+      scale (box aspect proportional to the axis spans; an axis the path barely moves
+      along is shown over at least 0.2 m and a quarter of the largest span).
     * ``top_view.png`` -- north-east map of the path and the dock with the current as
-      arrows: of ``flow_field`` on a grid at the run's final time if given, otherwise
-      the recorded ``flow_ned_m_s`` sub-sampled along the path.
+      arrows proportional to its speed, with a quiver key (reference arrow and its m/s):
+      of ``flow_field`` on a grid at the run's final time if given, otherwise the
+      recorded ``flow_ned_m_s`` sub-sampled along the path.  Legend outside the map.
     * ``distance.png`` -- vehicle-to-dock distance vs time, with the docking tolerance
       (attribute ``tolerance_m``) as a horizontal line if recorded.
-    * ``thrust.png`` -- the thruster forces (N) vs time, held over each step.
+    * ``thrust.png`` -- the thruster forces (N) vs time, held over each step; thrusters
+      with identical series share one line (labelled e.g. ``T1 = T2``), lines differ in
+      colour and style, and the thrust limits are drawn as horizontal lines (from
+      ``thrust_limits``, else :func:`thrust_limits_of`).
 
     Written when the extras exist:
 
@@ -78,6 +102,9 @@ def plot_run(
         top view's arrow grid.
     dpi : int
         Resolution of the PNG files.
+    thrust_limits : (ndarray, ndarray), optional
+        Per-thruster reverse (negative) and forward limits, N, each (n,), for the thrust
+        plot; default: :func:`thrust_limits_of` ``(results)``.
 
     Returns
     -------
@@ -89,31 +116,75 @@ def plot_run(
     ValueError
         If the run has no steps, or an extra series has the wrong shape.
     """
-    n = results.n_steps
-    if n == 0:
-        where = f"{results.source}:{results.group}" if results.source else "the run"
-        raise ValueError(f"cannot plot {where}: it has no recorded steps (0 rows)")
+    figures = run_figures(results, flow_field=flow_field, thrust_limits=thrust_limits)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-
-    figures: list[tuple[str, Figure]] = [
-        ("trajectory_3d", _trajectory_3d(results)),
-        ("top_view", _top_view(results, flow_field)),
-        ("distance", _distance(results)),
-        ("thrust", _thrust(results)),
-    ]
-    ex = results.extras
-    if "flow_estimate_m_s" in ex and "flow_body_true_m_s" in ex:
-        figures.append(("flow_estimate", _flow_estimate(results)))
-    if "information" in ex:
-        figures.append(("information", _information(results)))
-
     paths = []
     for name, fig in figures:
         path = out / f"{prefix}{name}.png"
         fig.savefig(path, dpi=dpi)
         paths.append(path)
     return paths
+
+
+def run_figures(
+    results: RunResults,
+    *,
+    flow_field: FlowFieldLike | None = None,
+    thrust_limits: tuple[np.ndarray, np.ndarray] | None = None,
+) -> list[tuple[str, Figure]]:
+    """The figures :func:`plot_run` saves, built but not saved: ``(name, Figure)`` in file order.
+
+    ``name`` is the file name without prefix and ``.png`` (``"trajectory_3d"``, ``"top_view"``,
+    ``"distance"``, ``"thrust"``, then ``"flow_estimate"`` and ``"information"`` if the run
+    has those extras).  Parameters and errors as :func:`plot_run`.
+    """
+    if results.n_steps == 0:
+        where = f"{results.source}:{results.group}" if results.source else "the run"
+        raise ValueError(f"cannot plot {where}: it has no recorded steps (0 rows)")
+    figures: list[tuple[str, Figure]] = [
+        ("trajectory_3d", _trajectory_3d(results)),
+        ("top_view", _top_view(results, flow_field)),
+        ("distance", _distance(results)),
+        ("thrust", _thrust(results, thrust_limits)),
+    ]
+    ex = results.extras
+    if "flow_estimate_m_s" in ex and "flow_body_true_m_s" in ex:
+        figures.append(("flow_estimate", _flow_estimate(results)))
+    if "information" in ex:
+        figures.append(("information", _information(results)))
+    return figures
+
+
+def thrust_limits_of(results: RunResults) -> tuple[np.ndarray, np.ndarray] | None:
+    """The vehicle's per-thruster thrust limits (reverse, forward), N, each (n,), or None if unknown.
+
+    From the run attributes ``thrust_min_N`` and ``thrust_max_N`` if recorded, otherwise
+    from the vehicle of the mission stored with the run (``mission_yaml``: preset or
+    parameter file, overrides, battery voltage).  None when neither gives ``n`` limits
+    for the ``n`` recorded thrusters (e.g. a relative vehicle file that is not found).
+    """
+    n = results.thrust_N.shape[1]
+    lo, hi = results.attrs.get("thrust_min_N"), results.attrs.get("thrust_max_N")
+    if lo is None or hi is None:
+        try:
+            import yaml
+
+            from auvdock.mission import parse_mission
+            from auvdock.vehicle.params import load_params
+
+            spec = parse_mission(yaml.safe_load(results.mission_yaml), "mission_yaml").vehicle
+            target = spec.file if spec.file is not None else (spec.preset or "bluerov2_heavy")
+            limits = load_params(target, spec.overrides or None, spec.thruster_voltage_V).thrust_limits_N
+            lo, hi = limits[:, 0], limits[:, 1]
+        except Exception:  # no stored mission, an unreadable vehicle file...: no limits to draw
+            return None
+    try:
+        lo_n = np.broadcast_to(np.asarray(lo, dtype=float), (n,)).copy()
+        hi_n = np.broadcast_to(np.asarray(hi, dtype=float), (n,)).copy()
+    except ValueError:  # limits of another vehicle (another thruster count)
+        return None
+    return lo_n, hi_n
 
 
 # ----------------------------------------------------------------------------- helpers
@@ -181,8 +252,25 @@ def _mark_ends(ax: Axes, *coords: np.ndarray, three_d: bool = False) -> None:
 # ----------------------------------------------------------------------------- figures
 
 
+def _equal_limits(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Axis limits (lo, hi), each (3,), around the finite ``points`` (k, 3), for one common scale.
+
+    Each axis spans its data plus a margin; an axis whose data span is smaller than
+    ``_MIN_SPAN_M`` or ``_MIN_SPAN_FRACTION`` of the largest span is widened (about its
+    centre) to that, so rounding noise on a degenerate axis stays invisible.
+    """
+    pts = points[_finite_rows(points)] if points.size else points
+    if pts.shape[0] == 0:
+        return np.full(3, -0.5), np.full(3, 0.5)
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    centre, span = (lo + hi) / 2.0, hi - lo
+    largest = max(float(span.max()), _MIN_SPAN_M)
+    span = np.maximum(span, max(_MIN_SPAN_FRACTION * largest, _MIN_SPAN_M)) + 2.0 * _SPAN_MARGIN * largest
+    return centre - span / 2.0, centre + span / 2.0
+
+
 def _trajectory_3d(results: RunResults) -> Figure:
-    fig = _new_figure((8.0, 6.5))
+    fig = _new_figure((9.0, 6.5))
     ax = fig.add_subplot(projection="3d")
     north, east, down = results.state[:, POS].T
     ax.plot(east, north, down, color="tab:blue", lw=1.5, label="vehicle")
@@ -197,17 +285,37 @@ def _trajectory_3d(results: RunResults) -> Figure:
         ax.scatter(
             [d[1]], [d[0]], [d[2]], marker="*", s=160, color="gold", edgecolors="k", label="dock (final)"
         )
-    ax.set_xlabel("east [m]")
-    ax.set_ylabel("north [m]")
-    ax.set_zlabel("down [m]")
+    # one scale on all three axes: equal-scale limits and a box whose sides are the axis spans
+    enu = np.concatenate([results.state[:, POS], dock])[:, [1, 0, 2]]  # (east, north, down)
+    lo, hi = _equal_limits(enu)
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
+    ax.set_zlim(lo[2], hi[2])
     ax.invert_zaxis()
-    ax.legend(loc="upper left", fontsize="small")
-    ax.set_title(_title(results, "Vehicle trajectory (3-D, NED)"), fontsize="medium")
+    ax.set_box_aspect(tuple(hi - lo))
+    for axis, span in zip((ax.xaxis, ax.yaxis, ax.zaxis), hi - lo, strict=True):
+        # about one tick per sixth of the largest span: short axes do not crowd their labels
+        axis.set_major_locator(MaxNLocator(nbins=max(2, round(6 * span / float(np.max(hi - lo))))))
+    ax.set_xlabel("east [m]", labelpad=8)
+    ax.set_ylabel("north [m]", labelpad=12)
+    ax.set_zlabel("down [m]", labelpad=8)
+    fig.legend(loc="outside right upper", fontsize="small")
+    ax.set_title(_title(results, "Vehicle trajectory (3-D, NED, equal scale on all axes)"), fontsize="medium")
     return fig
 
 
+def _nice_speed(v: float) -> float:
+    """The smallest of 1, 2, 5 x 10^k (m/s) not below ``v`` > 0."""
+    exp = math.floor(math.log10(v))
+    for m in (1.0, 2.0, 5.0, 10.0):
+        ref = m * 10.0**exp
+        if ref >= v * (1.0 - 1e-9):
+            return ref
+    return 10.0 ** (exp + 1)
+
+
 def _top_view(results: RunResults, flow_field: FlowFieldLike | None) -> Figure:
-    fig = _new_figure((8.0, 7.0))
+    fig = _new_figure((9.5, 7.0))
     ax = fig.add_subplot()
     pos = results.state[:, POS]
     dock = results.dock_position_m
@@ -228,7 +336,7 @@ def _top_view(results: RunResults, flow_field: FlowFieldLike | None) -> Figure:
         grid = np.stack([nn, ee, np.full_like(nn, depth)], axis=-1)
         t_end = float(results.time_s[-1])
         v = np.asarray(flow_field.velocity(grid, t_end), dtype=float)
-        label = f"current at t = {t_end:.1f} s (flow field)"
+        label = f"current (flow field at t = {t_end:.1f} s)"
         _quiver(ax, ee, nn, v[..., 1], v[..., 0], step, label)
     else:
         idx = np.unique(np.linspace(0, results.n_steps - 1, min(results.n_steps, _PATH_ARROWS)).astype(int))
@@ -250,28 +358,44 @@ def _top_view(results: RunResults, flow_field: FlowFieldLike | None) -> Figure:
     ax.set_ylabel("north [m]")
     ax.set_aspect("equal", adjustable="datalim")
     ax.grid(True, alpha=0.3)
-    ax.legend(loc="best", fontsize="small", framealpha=0.9)
+    # outside the map, so it covers no arrow or path
+    fig.legend(loc="outside right upper", fontsize="small", framealpha=0.9)
     ax.set_title(_title(results, "Top view (north-east)"), fontsize="medium")
     return fig
 
 
 def _quiver(
     ax: Axes, x: np.ndarray, y: np.ndarray, u: np.ndarray, v: np.ndarray, length: float, label: str
-) -> None:
-    """Arrows (u, v) at (x, y), the fastest drawn ``0.9 * length`` data units long.
+) -> Quiver | None:
+    """Arrows (u, v) m/s at (x, y) m, their lengths proportional to the speed, with a quiver key.
 
-    The legend entry states the largest speed (the arrow length scale).
+    The key's reference speed is the "nice" speed (:func:`_nice_speed`) at or above the
+    fastest arrow; its arrow is ``_KEY_FRACTION * length`` data units long, and every arrow
+    is ``speed / reference`` times that.  The key sits just right of the map, below the
+    legend.  Returns the quiver, or None (and a "no current" note) if there is no current.
     """
     speed = np.hypot(u, v)
     vmax = float(np.nanmax(speed)) if speed.size else 0.0
     if not np.isfinite(vmax) or vmax <= 0.0:
         ax.text(0.02, 0.02, "no current", transform=ax.transAxes, fontsize="small", color="0.3")
-        return
-    ax.quiver(
+        return None
+    ref = _nice_speed(vmax)
+    q = ax.quiver(
         x, y, u, v,
-        angles="xy", scale_units="xy", scale=vmax / (0.9 * length),
-        color="tab:cyan", width=0.003, zorder=2, label=f"{label}, max {vmax:.2g} m/s",
+        angles="xy", scale_units="xy", scale=ref / (_KEY_FRACTION * length),
+        color="tab:cyan", width=0.003, zorder=2, label=label,
     )  # fmt: skip
+    # the key right of the map's lower corner (the arrow, at most 1/16 of the map wide, is centred
+    # on X): the reference arrow, its speed, the largest speed
+    ax.quiverkey(
+        q, 1.08, 0.03, ref, f"{ref:g} m/s", labelpos="N", coordinates="axes", color="tab:cyan",
+        fontproperties={"size": "small"},
+    )  # fmt: skip
+    ax.text(
+        1.03, 0.09, f"current, to scale\n(max here {vmax:.2g} m/s)", transform=ax.transAxes,
+        fontsize="small", ha="left", va="bottom", color="0.25",
+    )  # fmt: skip
+    return q
 
 
 def _distance(results: RunResults) -> Figure:
@@ -293,17 +417,62 @@ def _distance(results: RunResults) -> Figure:
     return fig
 
 
-def _thrust(results: RunResults) -> Figure:
-    fig = _new_figure((9.0, 5.0))
+def _same_series_groups(a: np.ndarray, atol: float) -> list[list[int]]:
+    """Columns of ``a`` (T, n) grouped by equal series (within ``atol``; NaN equals NaN), in column order."""
+    groups: list[list[int]] = []
+    for i in range(a.shape[1]):
+        for g in groups:
+            first = a[:, g[0]]
+            col = a[:, i]
+            both_nan = np.isnan(first) & np.isnan(col)
+            close = np.abs(first - col) <= atol
+            if np.all(both_nan | close):
+                g.append(i)
+                break
+        else:
+            groups.append([i])
+    return groups
+
+
+def _thrust(results: RunResults, limits: tuple[np.ndarray, np.ndarray] | None = None) -> Figure:
+    fig = _new_figure((9.5, 5.0))
     ax = fig.add_subplot()
-    thrust = results.thrust_N
-    for i in range(thrust.shape[1]):
-        ax.plot(results.time_s, thrust[:, i], drawstyle="steps-post", lw=1.2, label=f"T{i + 1}")
+    thrust = np.asarray(results.thrust_N, dtype=float)
+    groups = _same_series_groups(thrust, _SAME_THRUST_N)
+    for k, g in enumerate(groups):
+        label = " = ".join(f"T{i + 1}" for i in g)
+        ax.plot(
+            results.time_s, thrust[:, g[0]], drawstyle="steps-post", color=f"C{k % 10}",
+            ls=_THRUST_STYLES[k % len(_THRUST_STYLES)], lw=1.8 if len(groups) <= 4 else 1.4,
+            label=label, gid="thrust " + label,
+        )  # fmt: skip
+    if limits is None:
+        limits = thrust_limits_of(results)
+    if limits is not None:
+        for side, values, ls in (("max", limits[1], (0, (8, 3))), ("min", limits[0], (0, (3, 2)))):
+            for value in np.unique(values[np.isfinite(values)]):
+                which = [i for i in range(values.size) if values[i] == value]
+                who = "" if len(which) == values.size else " (" + ", ".join(f"T{i + 1}" for i in which) + ")"
+                text = f"thrust limit {side} {value:g} N{who}"
+                ax.axhline(value, color="0.15", ls=ls, lw=1.2, label=text, gid=f"thrust_limit_{side}")
+                ax.annotate(
+                    f"{side} {value:g} N{who}", (0.995, value), xycoords=("axes fraction", "data"),
+                    xytext=(0, 2 if side == "max" else -2), textcoords="offset points", ha="right",
+                    va="bottom" if side == "max" else "top", fontsize="small", color="0.15",
+                )  # fmt: skip
+    else:
+        ax.text(
+            0.01, 0.01, "thrust limits unknown (no vehicle with the run)", transform=ax.transAxes,
+            fontsize="small", color="0.3",
+        )  # fmt: skip
     ax.set_xlabel("time [s]")
     ax.set_ylabel("thruster force [N]")
     ax.grid(True, alpha=0.3)
+    title = "Thruster forces"
+    if any(len(g) > 1 for g in groups):
+        title += " (thrusters with identical forces share a line)"
     fig.legend(loc="outside right upper", fontsize="small")
-    ax.set_title(_title(results, "Thruster forces"), fontsize="medium")
+    ax.set_title(_title(results, title), fontsize="medium")
     return fig
 
 

@@ -8,11 +8,16 @@ from typing import Any
 
 import numpy as np
 import pytest
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.patches import Circle
 
 from auvdock.campaign_plots import (
     CONTROLLER_COLORS,
     CONTROLLER_LABELS,
     CONTROLLER_ORDER,
+    campaign_figures,
     controller_color,
     controller_label,
     plot_campaign,
@@ -136,7 +141,7 @@ def test_no_flow_estimator_still_writes_fig5(tmp_path: Path) -> None:
 
 
 def test_unusual_campaigns(tmp_path: Path) -> None:
-    """One case, no trajectories at all, an unknown controller, a log-scale flow RMSE, a NaN value."""
+    """One case, no trajectories at all, an unknown controller, flow RMSEs 500x apart, a NaN value."""
     records = [
         record("solo", "custom", flow_rmse=0.001),
         record("solo", "optimized", flow_rmse=0.5),
@@ -171,3 +176,153 @@ def test_controller_colors_and_labels() -> None:
     assert fallback not in colors
     assert controller_label("optimized") == "Optimized FSE-MPC"
     assert controller_label("my_new_controller") == "my_new_controller"
+
+
+# ----------------------------------------------------------------------------- figure content
+
+
+def figures(records, runs) -> dict[str, Figure]:
+    built = campaign_figures(records, runs)
+    assert [name for name, _ in built] == list(FIGURES)
+    return dict(built)
+
+
+def paths_of(ax: Axes) -> dict[str, Line2D]:
+    return {str(ln.get_gid())[5:]: ln for ln in ax.get_lines() if str(ln.get_gid()).startswith("path ")}
+
+
+def assert_legend_inside(fig: Figure, name: str) -> None:
+    fig.canvas.draw()
+    (legend,) = fig.legends
+    box, page = legend.get_window_extent(), fig.bbox
+    assert box.x0 >= page.x0 - 0.5 and box.x1 <= page.x1 + 0.5, (name, box, page)
+    assert box.y0 >= page.y0 - 0.5 and box.y1 <= page.y1 + 0.5, (name, box, page)
+
+
+def test_fig2_coinciding_paths_stay_visible_and_are_named() -> None:
+    records = [record("case_a", c) for c in ("naive", "kinematic", "oracle")]
+    runs = {
+        ("case_a", "naive"): synthetic_run(docked=True, bend=0.5),
+        ("case_a", "kinematic"): synthetic_run(docked=True, bend=0.1),
+        ("case_a", "oracle"): synthetic_run(docked=True, bend=0.1),  # the same path as kinematic
+    }
+    fig = figures(records, runs)["fig2_trajectories"]
+    ax = fig.axes[0]
+    lines = paths_of(ax)
+    assert set(lines) == {"naive", "kinematic", "oracle"}
+    kin, ora = lines["kinematic"], lines["oracle"]
+    np.testing.assert_array_equal(kin.get_xydata(), ora.get_xydata())
+    # oracle on top, thinner and dashed: kinematic shows at its sides and through its gaps
+    assert ora.get_zorder() > kin.get_zorder()
+    assert ora.get_linewidth() < kin.get_linewidth()
+    assert kin.get_linestyle() == "-" and ora.get_linestyle() != "-"
+    assert "same path" in ax.get_xlabel()
+    assert "Kinematic MPC = Oracle MPC" in ax.get_xlabel().replace("\n", " ")
+    assert "Naive MPC" not in ax.get_xlabel()
+    # the legend shows each controller's line style
+    handles = {h.get_label(): h for h in fig.legends[0].legend_handles}
+    assert handles["Oracle MPC"].get_linestyle() == ora.get_linestyle()
+
+
+def test_fig2_dock_inset_shows_the_tolerance_circle() -> None:
+    records, runs = campaign()
+    fig = figures(records, runs)["fig2_trajectories"]
+    panel_a, panel_b = fig.axes[:2]
+    (inset,) = [a for a in panel_a.child_axes if a.get_gid() == "dock inset"]
+    circles = [p for p in inset.patches if isinstance(p, Circle) and p.get_gid() == "docking tolerance"]
+    (circle,) = circles
+    assert circle.get_radius() == pytest.approx(0.05)
+    np.testing.assert_allclose(circle.get_center(), (DOCK_NED[1], DOCK_NED[0]))
+    # zoomed to 3 tolerance radii: the 5 cm circle spans a third of the inset (not hidden by the star)
+    assert np.diff(inset.get_xlim())[0] == pytest.approx(6 * 0.05)
+    assert np.diff(inset.get_ylim())[0] == pytest.approx(6 * 0.05)
+    # case_b: the tolerance comes from the run that recorded one
+    assert [a for a in panel_b.child_axes if a.get_gid() == "dock inset"]
+
+
+def test_fig2_no_inset_without_a_tolerance() -> None:
+    records = [record("solo", "oracle")]
+    runs = {("solo", "oracle"): synthetic_run(docked=True, bend=0.2, tolerance_m=None)}
+    ax = figures(records, runs)["fig2_trajectories"].axes[0]
+    assert not ax.child_axes
+    assert not [p for p in ax.patches if isinstance(p, Circle)]
+
+
+def test_fig2_inset_in_an_empty_corner() -> None:
+    records, runs = campaign()
+    fig = figures(records, runs)["fig2_trajectories"]
+    fig.canvas.draw()
+    ax = fig.axes[0]
+    (inset,) = ax.child_axes
+    box = inset.get_window_extent()
+    to_pixels = ax.transData
+    for line in paths_of(ax).values():
+        xy = to_pixels.transform(line.get_xydata())
+        inside = (xy[:, 0] > box.x0) & (xy[:, 0] < box.x1) & (xy[:, 1] > box.y0) & (xy[:, 1] < box.y1)
+        assert not inside.any(), line.get_gid()
+
+
+@pytest.mark.parametrize("n_cases", [1, 2, 4])
+def test_legends_fit_the_figure(n_cases: int) -> None:
+    controllers = ("naive", "kinematic", "oracle", "sequential", "optimized")
+    records, runs = [], {}
+    for i in range(n_cases):
+        for c in controllers:
+            docked = c != "oracle"
+            records.append(record(f"case_{i}", c, docked=docked, flow_rmse=0.1 if "q" in c else math.nan))
+            runs[(f"case_{i}", c)] = synthetic_run(docked=docked, bend=0.1 * len(c))
+    for name, fig in figures(records, runs).items():
+        assert_legend_inside(fig, name)
+
+
+def bar_notes(ax: Axes) -> list[str]:
+    return [t.get_text() for t in ax.texts if t.get_gid() == "bar note"]
+
+
+def bars(ax: Axes) -> dict[str, Any]:
+    return {str(p.get_gid()): p for p in ax.patches if str(p.get_gid()).startswith("bar ")}
+
+
+def test_fig5_linear_axis_values_and_timed_out_runs_apart() -> None:
+    records = [
+        record("case_a", "sequential", flow_rmse=0.001),
+        record("case_a", "optimized", flow_rmse=0.5),
+        record("case_b", "sequential", docked=False, flow_rmse=0.2),  # timed out at 75 s
+        record("case_b", "optimized", flow_rmse=0.03),
+    ]
+    ax = figures(records, {})["fig5_flow_rmse"].axes[0]
+    assert ax.get_yscale() == "linear"  # bar heights show the ratios
+    b = bars(ax)
+    assert set(b) == {
+        "bar case_a sequential",
+        "bar case_a optimized",
+        "bar case_b sequential not docked",
+        "bar case_b optimized",
+    }
+    assert b["bar case_a optimized"].get_height() == pytest.approx(0.5)
+    assert b["bar case_a optimized"].get_height() / b["bar case_b optimized"].get_height() == pytest.approx(
+        0.5 / 0.03
+    )
+    timed_out = b["bar case_b sequential not docked"]
+    assert timed_out.get_hatch() and not b["bar case_b optimized"].get_hatch()
+    notes = bar_notes(ax)
+    assert "0.001" in notes and "0.5" in notes and "0.03" in notes  # every bar labelled with its value
+    assert any("0.2" in n and "timed out 75 s" in n for n in notes)
+    legend_text = " ".join(t.get_text() for t in ax.get_figure().legends[0].get_texts())
+    assert "not comparable" in legend_text
+
+
+def test_fig3_fig4_mark_runs_that_did_not_dock() -> None:
+    records, runs = campaign()
+    records.append({**record("case_b", "oracle", docked=False), "reason": "diverged", "end_time_s": 12.5})
+    built = figures(records, runs)
+    for name in ("fig3_travel_time", "fig4_path_length"):
+        ax = built[name].axes[0]
+        b = bars(ax)
+        assert b["bar case_b kinematic not docked"].get_hatch()
+        assert b["bar case_b oracle not docked"].get_hatch()
+        assert not b["bar case_a kinematic"].get_hatch()
+        notes = bar_notes(ax)
+        assert "timed out 75 s" in notes and "diverged 12.5 s" in notes, name
+        assert any(t.get_text() == "failed" for t in ax.texts)  # case_b naive: no bar
+        assert "bar case_b naive" not in " ".join(b)
