@@ -4,6 +4,7 @@ reads like click's (``MISSION``, flags without a value type)."""
 from __future__ import annotations
 
 import re
+import signal
 
 import pytest
 from typer.testing import CliRunner
@@ -65,8 +66,12 @@ def test_jobs_means_worker_processes_in_compare_and_sweep(capsys) -> None:
     for command in ("compare", "sweep"):
         res = runner.invoke(app, [command, "--help"], env={"COLUMNS": "120"})
         assert re.search(r"-j, --jobs", res.output), res.output
-    with pytest.raises(SystemExit) as e:  # through the console script's one-line option errors
-        main(["sweep", "model_error", "--jobs", "0"])
+    previous = signal.getsignal(signal.SIGINT)
+    try:
+        with pytest.raises(SystemExit) as e:  # through the console script's one-line option errors
+            main(["sweep", "model_error", "--jobs", "0"])
+    finally:  # main() ignores a late Ctrl-C as it exits: give the other tests theirs back
+        signal.signal(signal.SIGINT, previous)
     assert e.value.code == 2
     # (the program name is pytest's here; "auvdock" from the console script)
     assert capsys.readouterr().err.strip().endswith(

@@ -303,7 +303,7 @@ def _alive(pid: int) -> bool:
 
 
 def test_ctrl_c_subprocess_exits_130_and_resume_finishes(tmp_path) -> None:
-    args = ["compare", *FOUR, "-c", "oracle,naive", "--timeout", "6", "--jobs", "2", "--out", str(tmp_path)]
+    args = ["compare", *FOUR, "-c", "oracle,naive", "--timeout", "40", "--jobs", "2", "--out", str(tmp_path)]
     p = _driver([*args, "--no-plots"], tmp_path)
     lines: list[str] = []
     _wait_for_finished_run(p, lines)
