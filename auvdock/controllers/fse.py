@@ -260,9 +260,6 @@ class FSEMPC:
         e = estimator
         dt = settings.dt_s
         self.vehicle = vehicle
-        rot = vehicle.model.function("rotation")
-        rot_fast = BufferedFunction(rot)
-        self._rotation = lambda angles: rot_fast(angles)[0].reshape(3, 3, order="F").copy()
         self.estimator = FlowEstimator(
             vehicle,
             dt,
@@ -361,7 +358,7 @@ class FSEMPC:
                 r = self.mpc.solve(meas.t, est.state, u_prev, est.flow_ned, u_offset=u_off)
         else:
             G = self.estimator.gramian()
-            depth_row = self._rotation(est.state[ATT])[2, :]
+            depth_row = self.estimator.R(est.state[ATT])[2, :]
             extra = np.concatenate(
                 [_six(G), [float(information_lower_bound(G))], depth_row, [self._info_weight(est.covariance)]]
             )
