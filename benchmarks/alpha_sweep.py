@@ -11,8 +11,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from auvdock.mission import load_mission
-from auvdock.simulation import simulate
+from auvdock.config.mission import load_mission
+from auvdock.loop.simulation import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
 CASE_FILES = {1: "still", 2: "diagonal", 3: "south", 4: "east_strong", 5: "gyre", 6: "gyre_fast"}

@@ -5,10 +5,10 @@ What is compared
 The Oracle MPC of auvdock (:class:`auvdock.controllers.mpc.DockingMPC`, prediction "full",
 the true flow at the vehicle held constant over the horizon) and the same optimal control
 problem built with do-mpc (https://www.do-mpc.com), all flown closed loop on the same paper
-case by auvdock's own simulator (:func:`auvdock.simulation.simulate`): same truth model,
+case by auvdock's own simulator (:func:`auvdock.loop.simulation.simulate`): same truth model,
 flow field, dock, start state, control period and timeout.  A do-mpc MPC is wrapped in a
 controller with auvdock's interface (``name``, ``reset()``, ``step(meas, u_prev)``) and put
-in place of the controller of an :class:`auvdock.autopilot.Autopilot`.
+in place of the controller of an :class:`auvdock.loop.autopilot.Autopilot`.
 
 auvdock's Oracle MPC is flown in its ``paper`` variant (``oracle@paper``): the default
 ``robust`` variant adds an offset-free disturbance observer and a predicted disturbance
@@ -164,14 +164,14 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from auvdock.autopilot import Autopilot
-from auvdock.bench import PAPER_MISSIONS, default_missions_dir, machine_line
+from auvdock.campaign.bench import PAPER_MISSIONS, default_missions_dir, machine_line
+from auvdock.config.mission import Mission, load_mission
 from auvdock.controllers import ControlOutput, Measurement, Plan, resolve_solver
 from auvdock.controllers.mpc import DockingMPC, shift_solution
 from auvdock.controllers.solvers import IPOPT_OPTIONS
 from auvdock.controllers.status import STATUS_FAILED, STATUS_NAMES, STATUS_NOT_CONVERGED, STATUS_OK
-from auvdock.mission import Mission, load_mission
-from auvdock.simulation import RunSummary, simulate
+from auvdock.loop.autopilot import Autopilot
+from auvdock.loop.simulation import RunSummary, simulate
 from auvdock.vehicle.model import rk4
 
 #: The IPOPT options of auvdock's ``ipopt`` solver, without ``max_iter`` and ``tol`` (the mission's);

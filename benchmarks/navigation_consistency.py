@@ -32,7 +32,7 @@ NAMES = "x y z roll pitch yaw u v w p q r vc_n vc_e ba_x ba_y ba_z bg_x bg_y bg_
 
 def _figures(title: str, t: np.ndarray, nees: np.ndarray, normed: np.ndarray, nz: int) -> None:
     """Print the ensemble NEES against its bounds, the per-seed spread and the per-state ratios."""
-    from auvdock.estimator import chi2_quantile
+    from auvdock.estimation.flow_filter import chi2_quantile
 
     n = nees.shape[0]
     avg = nees.mean(axis=0)
@@ -72,7 +72,7 @@ def consistency_test(n_seeds: int, T: float) -> None:
     import casadi as ca
     from test_navigation import DT, _process_truth_run
 
-    from auvdock.navigation import NZ, NavigationSettings
+    from auvdock.estimation.navigation_filter import NZ, NavigationSettings
     from auvdock.vehicle import load_vehicle
     from auvdock.vehicle.model import rk4
     from auvdock.vehicle.state import NX
@@ -99,13 +99,13 @@ def consistency_test(n_seeds: int, T: float) -> None:
 def _sim_run(args: tuple[str, str, int]) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
     """One closed-loop sim on the filter; (t, NEES, normalised errors) per control step, outcome."""
     case, controller, seed = args
-    from auvdock.autopilot import build_autopilot
-    from auvdock.catalog import mission_path
-    from auvdock.mission import load_mission
-    from auvdock.navigation import NZ
-    from auvdock.results import read_run
-    from auvdock.sensors import SensorSuite
-    from auvdock.simulation import simulate
+    from auvdock.config.catalog import mission_path
+    from auvdock.config.mission import load_mission
+    from auvdock.estimation.navigation_filter import NZ
+    from auvdock.loop.autopilot import build_autopilot
+    from auvdock.loop.simulation import simulate
+    from auvdock.results.store import read_run
+    from auvdock.sensing.sensors import SensorSuite
     from auvdock.vehicle.state import NX, POS, YAW
 
     m = load_mission(mission_path(case)).with_updates(estimation="filter", seed=seed)
@@ -142,7 +142,7 @@ def _sim_run(args: tuple[str, str, int]) -> tuple[np.ndarray, np.ndarray, np.nda
 
 
 def realistic(case: str, controller: str, n_seeds: int, jobs: int) -> None:
-    from auvdock.navigation import NZ
+    from auvdock.estimation.navigation_filter import NZ
 
     t0 = time.perf_counter()
     with ProcessPoolExecutor(jobs) as ex:

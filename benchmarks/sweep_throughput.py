@@ -37,8 +37,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def _warm(_: int = 0) -> int:
     """Import auvdock and fly one 0.05 s run in this process; returns the pid."""
-    from auvdock.mission import load_mission
-    from auvdock.simulation import simulate
+    from auvdock.config.mission import load_mission
+    from auvdock.loop.simulation import simulate
 
     m = load_mission(ROOT / "missions" / "still.yaml")
     for c in ("naive", "oracle"):
@@ -67,7 +67,7 @@ def main() -> None:
     from distributed import Client, LocalCluster
 
     from auvdock.campaign import execute_run, machine_line
-    from auvdock.codegen import compile_mode
+    from auvdock.runtime.codegen import compile_mode
     from auvdock.sweep import expand_sweep, load_sweep, run_sweep
 
     print(f"machine: {machine_line()}; AUVDOCK_COMPILE={compile_mode()}")

@@ -1,11 +1,12 @@
-"""ArduSub's manual thrust path (auvdock.hardware.ardusub): mixer facts, force -> channel round trip."""
+"""ArduSub's manual thrust path (auvdock.vehicle.ardusub): mixer facts, force -> channel round trip."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from auvdock.hardware.ardusub import (
+from auvdock.vehicle import load_vehicle
+from auvdock.vehicle.ardusub import (
     CHANNELS,
     MOTOR_FACTORS,
     NEUTRAL_CHANNELS,
@@ -16,7 +17,6 @@ from auvdock.hardware.ardusub import (
     t200_pwm_to_force,
     thrust_from_channels,
 )
-from auvdock.vehicle import load_vehicle
 from auvdock.vehicle.thrusters import t200_force_to_pwm
 
 

@@ -44,7 +44,7 @@ def test_bench_table() -> None:
 def test_bench_parts_of_an_fse_step() -> None:
     """Sequential FSE-MPC on sqp: the flow filter, the perception law, the NLP's function
     evaluations and its solver, and Python."""
-    from auvdock.bench import bench_rows
+    from auvdock.campaign.bench import bench_rows
 
     (row,) = bench_rows([2], ["sequential"], ["sqp"], timeout_s=0.5)
     want = ["flow filter", "perception", "nlp functions", "nlp solver", "python"]

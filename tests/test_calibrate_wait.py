@@ -14,7 +14,7 @@ import auvdock.cli.camera as camera_cli
 from auvdock.camera.calibration import NoVideoError, collect_views
 from auvdock.camera.video import Frame
 from auvdock.cli import app
-from auvdock.clock import SimClock
+from auvdock.runtime.clock import SimClock
 
 runner = CliRunner()
 

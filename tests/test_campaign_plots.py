@@ -1,4 +1,4 @@
-"""Tests of auvdock.campaign_plots: the summary figures of a docking campaign."""
+"""Tests of auvdock.campaign.plots: the summary figures of a docking campaign."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle
 
-from auvdock.campaign_plots import (
+from auvdock.campaign.plots import (
     CONTROLLER_COLORS,
     CONTROLLER_LABELS,
     CONTROLLER_ORDER,
@@ -22,7 +22,7 @@ from auvdock.campaign_plots import (
     controller_label,
     plot_campaign,
 )
-from auvdock.results import RunResults
+from auvdock.results.store import RunResults
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 FIGURES = ("fig2_trajectories", "fig3_travel_time", "fig4_path_length", "fig5_flow_rmse")

@@ -91,9 +91,9 @@ def test_sim_says_it_does_not_use_the_camera(tmp_path) -> None:
 
 @pytest.mark.parametrize("mission", ["still", "tank_camera", "sitl_vec6_0p6hz"])
 def test_validate_keeps_every_value_whole_at_80_columns_and_prints_brackets(mission: str) -> None:
-    from auvdock.catalog import missions_dir
     from auvdock.cli.validate import _flatten
-    from auvdock.mission import load_mission
+    from auvdock.config.catalog import missions_dir
+    from auvdock.config.mission import load_mission
 
     res = runner.invoke(app, ["validate", mission], env={"COLUMNS": "80"})
     assert res.exit_code == 0, res.output

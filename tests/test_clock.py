@@ -1,4 +1,4 @@
-"""auvdock.clock: the wall clock, and the simulated clock that runs threads in lockstep."""
+"""auvdock.runtime.clock: the wall clock, and the simulated clock that runs threads in lockstep."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import threading
 import pytest
 from pymavlink import mavutil
 
-from auvdock.clock import Clock, ClockClosedError, ClockDeadlockError, SimClock, WallClock, wall_clock
+from auvdock.runtime.clock import Clock, ClockClosedError, ClockDeadlockError, SimClock, WallClock, wall_clock
 
 HOST = "127.0.0.1"
 

@@ -1,4 +1,4 @@
-"""The compiled-solver cache (auvdock.codegen): build once, load after, rebuild when needed."""
+"""The compiled-solver cache (auvdock.runtime.codegen): build once, load after, rebuild when needed."""
 
 from __future__ import annotations
 
@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from auvdock import codegen
+from auvdock.config.mission import load_mission
 from auvdock.controllers import build_controller
-from auvdock.mission import load_mission
+from auvdock.runtime import codegen
 
 ROOT = Path(__file__).resolve().parents[1]
 

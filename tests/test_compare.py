@@ -35,7 +35,7 @@ from auvdock.campaign import (
     summary_rows,
 )
 from auvdock.cli import app
-from auvdock.results import read_run
+from auvdock.results.store import read_run
 
 ROOT = Path(__file__).resolve().parents[1]
 MISSIONS = [ROOT / "missions" / "still.yaml", ROOT / "missions" / "diagonal.yaml"]

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from auvdock.fly.conformance import check_parameters, parameter_names
-from auvdock.hardware.vehicle_sim import default_parameters
+from auvdock.standins.vehicle_sim import default_parameters
 
 DT = 0.05
 

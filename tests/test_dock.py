@@ -1,4 +1,4 @@
-"""Tests of the heaving dock (auvdock.dock): paper eq. (7), z(t) = z0 + A sin(w t + phase)."""
+"""Tests of the heaving dock (auvdock.world.dock): paper eq. (7), z(t) = z0 + A sin(w t + phase)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from auvdock.dock import HeaveDock
+from auvdock.world.dock import HeaveDock
 
 # parameters.md section 3: dock at (2, 3) m around z = 5 m, A = 0.5 m, w = 0.1 rad/s
 PAPER = HeaveDock(

@@ -8,11 +8,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from auvdock.measurements import measure
-from auvdock.mission import load_mission
-from auvdock.results import read_run
-from auvdock.sensors import POSITION_SOURCES, SensorSettings, SensorSuite
-from auvdock.simulation import simulate
+from auvdock.config.mission import load_mission
+from auvdock.loop.simulation import simulate
+from auvdock.results.store import read_run
+from auvdock.sensing.measurements import measure
+from auvdock.sensing.sensors import POSITION_SOURCES, SensorSettings, SensorSuite
 from auvdock.vehicle import load_vehicle
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -66,7 +66,7 @@ def test_rates_latency_and_biases() -> None:
 
 
 def test_unknown_position_source_is_one_clear_error(tmp_path: Path) -> None:
-    from auvdock.mission import MissionError, parse_mission
+    from auvdock.config.mission import MissionError, parse_mission
 
     with pytest.raises(MissionError) as e:
         parse_mission({"name": "x", "sensors": {"position": {"source": "sonar"}}}, "m.yaml")
@@ -98,8 +98,8 @@ def test_gyro_bias_and_heading_survive_the_settling_in_a_strong_current() -> Non
     the current 3.6 m/s off (an update that did not iterate), the gyro-bias estimate went to
     -0.057 rad/s in pitch (true -0.0006; prior std 0.005) and the heading estimate 0.18 rad off
     at 2 s, still 0.09 rad at 15 s."""
-    from auvdock.flow import ConstantCurrent
-    from auvdock.navigation import NavigationFilter, NavigationSettings
+    from auvdock.estimation.navigation_filter import NavigationFilter, NavigationSettings
+    from auvdock.world.flow import ConstantCurrent
 
     dt = 0.05
     v = load_vehicle("bluerov2_heavy")

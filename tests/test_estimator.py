@@ -1,6 +1,7 @@
-"""Tests of the flow estimator (auvdock.estimator) and the active-perception law (fse.PerceptionLaw).
+"""Tests of the flow estimator (auvdock.estimation.flow_filter) and the active-perception law
+(fse.PerceptionLaw).
 
-The estimator is driven by simulated readings made the way :class:`auvdock.simulation.SensorModel`
+The estimator is driven by simulated readings made the way :class:`auvdock.loop.simulation.SensorModel`
 makes them (same default noise levels): the truth is integrated with ``Vehicle.stepper`` through a
 :class:`ConstantCurrent` (0.5, 0) m/s, and at every t_k = k dt (dt = 0.05 s) the estimator gets
 
@@ -24,7 +25,7 @@ import numpy as np
 import pytest
 
 from auvdock.controllers.fse import PerceptionLaw
-from auvdock.estimator import (
+from auvdock.estimation.flow_filter import (
     EstimatorStep,
     FlowEstimator,
     FlowKalmanFilter,
@@ -32,8 +33,8 @@ from auvdock.estimator import (
     gramian_step,
     information_lower_bound,
 )
-from auvdock.flow import ConstantCurrent
 from auvdock.vehicle import load_vehicle
+from auvdock.world.flow import ConstantCurrent
 
 DT = 0.05
 V_C = np.array([0.5, 0.0, 0.0])  # current, NED, m/s

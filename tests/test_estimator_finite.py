@@ -9,8 +9,8 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from auvdock.estimator import EstimatorSettings, FlowEstimator
-from auvdock.mission import load_mission
+from auvdock.config.mission import load_mission
+from auvdock.estimation.flow_filter import EstimatorSettings, FlowEstimator
 
 ROOT = Path(__file__).resolve().parents[1]
 _VEHICLE = load_mission(ROOT / "missions" / "diagonal.yaml").build_vehicle()

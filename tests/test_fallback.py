@@ -7,9 +7,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from auvdock.config.mission import load_mission
 from auvdock.controllers import build_controller
 from auvdock.controllers.status import STATUS_FAILED, STATUS_FALLBACK_ZERO, STATUS_OK
-from auvdock.mission import load_mission
 
 ROOT = Path(__file__).resolve().parents[1]
 FLOW = np.array([0.5, 0.5, 0.0])  # case 2's current

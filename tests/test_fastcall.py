@@ -6,7 +6,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from auvdock.fastcall import BufferedFunction
+from auvdock.runtime.fastcall import BufferedFunction
 
 
 def _fn() -> ca.Function:

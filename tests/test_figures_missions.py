@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from matplotlib.quiver import Quiver, QuiverKey
 
-from auvdock.mission import load_mission
-from auvdock.plots import plot_run, run_figures
-from auvdock.results import RunResults, read_run
-from auvdock.simulation import simulate
+from auvdock.config.mission import load_mission
+from auvdock.loop.simulation import simulate
+from auvdock.results.plots import plot_run, run_figures
+from auvdock.results.store import RunResults, read_run
 
 ROOT = Path(__file__).resolve().parents[1]
 BASE = ["trajectory_3d", "top_view", "distance", "thrust"]

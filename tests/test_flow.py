@@ -1,4 +1,4 @@
-"""Tests of the flow fields (auvdock.flow) against hand computations from parameters.md section 2.
+"""Tests of the flow fields (auvdock.world.flow) against hand computations from parameters.md section 2.
 
 Double gyre (Shadden et al. 2005) on [0, 2] x [0, 1], eps = 0.3::
 
@@ -15,7 +15,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from auvdock.flow import (
+from auvdock.world.flow import (
     FLOW_CASES,
     ConstantCurrent,
     DoubleGyre,

@@ -2,7 +2,7 @@
 
 Everything runs in simulated time (tests/helpers/loopback.py): the vehicle simulator's
 thread, the link's threads and the fly command (through the CLI, in the test's thread)
-share one :class:`auvdock.clock.SimClock`, so they run in lockstep, faster than real time
+share one :class:`auvdock.runtime.clock.SimClock`, so they run in lockstep, faster than real time
 and deterministically; every time below is simulated seconds.  Ctrl-C from outside, at
 random moments, is tests/test_fly_sigint.py (real processes on the wall clock).
 """
@@ -29,11 +29,11 @@ from helpers.loopback import (
 from pymavlink import mavutil
 
 from auvdock.cli import app
-from auvdock.dock import HeaveDock
+from auvdock.config.mission import load_mission
 from auvdock.fly import FlySession
-from auvdock.hardware.link import MavlinkLink, connection_string
-from auvdock.mission import load_mission
-from auvdock.results import read_run
+from auvdock.fly.link import MavlinkLink, connection_string
+from auvdock.results.store import read_run
+from auvdock.world.dock import HeaveDock
 
 
 @pytest.fixture

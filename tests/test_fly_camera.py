@@ -22,9 +22,9 @@ import pytest
 from helpers.loopback import Loopback, free_port, write_mission
 
 from auvdock.camera.model import CameraModel, save_camera
+from auvdock.config.mission import load_mission
 from auvdock.fly import CAMERA_STATES
-from auvdock.mission import load_mission
-from auvdock.results import read_run
+from auvdock.results.store import read_run
 
 
 @pytest.fixture

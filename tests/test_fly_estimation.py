@@ -1,7 +1,7 @@
 """The vehicle's telemetry as the sensor interface, the estimation stage on a vehicle, and replay.
 
 * :class:`auvdock.fly.telemetry.TelemetrySensors` maps ArduSub's messages to the same
-  readings the simulated suite gives (one definition per measurement, :mod:`auvdock.measurements`);
+  readings the simulated suite gives (one definition per measurement, :mod:`auvdock.sensing.measurements`);
 * ``vehicle-sim`` in a current the flown mission does not know: the flow-estimating
   controllers learn it on the navigation filter and dock (simulated time, loopback only);
 * ``auvdock replay`` reruns a flight's tlog to the same controller outputs.
@@ -18,16 +18,16 @@ import yaml
 from helpers.loopback import TANK, Loopback
 from pymavlink.dialects.v20 import ardupilotmega as mav2
 
-from auvdock import measurements as ms
 from auvdock.cli import app
+from auvdock.config.mission import load_mission
 from auvdock.fly import FlySession
+from auvdock.fly.link import MavlinkLink
 from auvdock.fly.replay import ReplayError, replay
 from auvdock.fly.telemetry import TelemetrySensors
-from auvdock.geometry import Rz, rotation_zyx
-from auvdock.hardware.link import MavlinkLink
-from auvdock.hardware.units import MG_M_S2, MRAD_S, pressure_hpa
-from auvdock.mission import load_mission
-from auvdock.results import read_run
+from auvdock.fly.units import MG_M_S2, MRAD_S, pressure_hpa
+from auvdock.results.store import read_run
+from auvdock.sensing import measurements as ms
+from auvdock.vehicle.geometry import Rz, rotation_zyx
 
 #: The issue's current: 0.297 m/s towards the south-east of the tank's frame.
 CURRENT = [0.2, -0.22]

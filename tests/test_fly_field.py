@@ -18,9 +18,9 @@ import pytest
 from helpers.loopback import HOST, NEUTRAL, RELEASE, TANK, Loopback, arm_commands, overrides, write_mission
 from pymavlink import mavutil
 
+from auvdock.config.mission import load_mission
 from auvdock.fly import FlySession
-from auvdock.hardware.link import MavlinkLink
-from auvdock.mission import load_mission
+from auvdock.fly.link import MavlinkLink
 
 DT = 0.05
 ARM_DISARM = 400

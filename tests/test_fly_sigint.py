@@ -24,9 +24,9 @@ from pathlib import Path
 import h5py
 from helpers.loopback import HOST, TANK, free_port
 
-from auvdock.hardware.vehicle_sim import VehicleSim
-from auvdock.mission import load_mission
-from auvdock.results import read_run
+from auvdock.config.mission import load_mission
+from auvdock.results.store import read_run
+from auvdock.standins.vehicle_sim import VehicleSim
 
 N_MOMENTS = 6
 MAX_DELAY_S = 4.5  # after the command's first line; a run lasts 6 s or more from there

@@ -18,11 +18,11 @@ import pytest
 from typer.testing import CliRunner
 
 from auvdock.cli import app
+from auvdock.config.mission import load_mission
 from auvdock.controllers.fse import PerceptionLaw
-from auvdock.estimator import gramian_step, information_lower_bound
-from auvdock.mission import load_mission
-from auvdock.results import read_run
-from auvdock.simulation import simulate
+from auvdock.estimation.flow_filter import gramian_step, information_lower_bound
+from auvdock.loop.simulation import simulate
+from auvdock.results.store import read_run
 
 ROOT = Path(__file__).resolve().parents[1]
 CASE2 = ROOT / "missions" / "diagonal.yaml"

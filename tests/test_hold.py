@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from helpers.loopback import TANK
 
+from auvdock.config.mission import load_mission
 from auvdock.controllers.hold import DepthAttitudeHold
-from auvdock.hardware.ardusub import channels_for_wrench, thrust_from_channels
-from auvdock.mission import load_mission
+from auvdock.vehicle.ardusub import channels_for_wrench, thrust_from_channels
 
 
 @pytest.fixture(scope="module")

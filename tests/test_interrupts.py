@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from auvdock.results import read_run
+from auvdock.results.store import read_run
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -1,4 +1,4 @@
-"""Tests of the measurement functions (auvdock.measurements) against analytic facts."""
+"""Tests of the measurement functions (auvdock.sensing.measurements) against analytic facts."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from auvdock import measurements as ms
+from auvdock.sensing import measurements as ms
 from auvdock.vehicle import load_vehicle
 from auvdock.vehicle.state import ANG, ATT, LIN, NX, POS
 

@@ -10,7 +10,7 @@ import pytest
 from typer.testing import CliRunner
 
 from auvdock.cli import app
-from auvdock.mission import MissionError, load_mission
+from auvdock.config.mission import MissionError, load_mission
 
 ROOT = Path(__file__).resolve().parents[1]
 MISSIONS = sorted((ROOT / "missions").glob("*.yaml"))
@@ -208,7 +208,7 @@ def test_resolved_tank_mission_round_trips_through_yaml() -> None:
     """A mission given with frequency_hz, written back by to_yaml (both fields filled), reads again."""
     import yaml
 
-    from auvdock.mission import load_mission, parse_mission
+    from auvdock.config.mission import load_mission, parse_mission
 
     m = load_mission(Path(__file__).resolve().parents[1] / "missions" / "tank_0p6hz.yaml")
     again = parse_mission(yaml.safe_load(m.to_yaml()), "<written>")

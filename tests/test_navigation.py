@@ -1,7 +1,7 @@
-"""Tests of the navigation filter (auvdock.navigation), all in simulated time.
+"""Tests of the navigation filter (auvdock.estimation.navigation_filter), all in simulated time.
 
 Truth: ``Vehicle.stepper(DT, 4, ConstantCurrent(...))`` driven by a thrust profile that surges,
-sways and turns; readings from :func:`auvdock.measurements.measure` plus Gaussian noise
+sways and turns; readings from :func:`auvdock.sensing.measurements.measure` plus Gaussian noise
 (attitude, gyro, accel, depth every step, position at 2 Hz, DVL optional).
 """
 
@@ -10,13 +10,19 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from auvdock import measurements as ms
-from auvdock.estimator import chi2_quantile
-from auvdock.flow import ConstantCurrent
-from auvdock.navigation import NZ, NavEstimate, NavigationFilter, NavigationSettings, Reading
-from auvdock.sensors import SensorSettings
+from auvdock.estimation.flow_filter import chi2_quantile
+from auvdock.estimation.navigation_filter import (
+    NZ,
+    NavEstimate,
+    NavigationFilter,
+    NavigationSettings,
+    Reading,
+)
+from auvdock.sensing import measurements as ms
+from auvdock.sensing.sensors import SensorSettings
 from auvdock.vehicle import load_vehicle
 from auvdock.vehicle.state import NX, YAW
+from auvdock.world.flow import ConstantCurrent
 
 DT = 0.05
 CURRENT = (0.3, -0.2)

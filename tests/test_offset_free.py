@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 from helpers.plant import plant
 
-from auvdock.autopilot import Autopilot, build_autopilot
+from auvdock.config.mission import load_mission
 from auvdock.controllers import Measurement
-from auvdock.mission import load_mission
-from auvdock.simulation import simulate
+from auvdock.loop.autopilot import Autopilot, build_autopilot
+from auvdock.loop.simulation import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
 TANK = ROOT / "missions" / "tank_0p6hz.yaml"

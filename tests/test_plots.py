@@ -1,4 +1,4 @@
-"""Tests of auvdock.plots: PNG figures of one run."""
+"""Tests of auvdock.results.plots: PNG figures of one run."""
 
 from __future__ import annotations
 
@@ -10,9 +10,9 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.quiver import Quiver, QuiverKey
 
-from auvdock.flow import ConstantCurrent, flow_case
-from auvdock.plots import plot_run, run_figures, thrust_limits_of
-from auvdock.results import RunResults, RunWriter, read_run
+from auvdock.results.plots import plot_run, run_figures, thrust_limits_of
+from auvdock.results.store import RunResults, RunWriter, read_run
+from auvdock.world.flow import ConstantCurrent, flow_case
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -1,4 +1,4 @@
-"""Tests of auvdock.results: the HDF5 run store (writer, reader, crash safety)."""
+"""Tests of auvdock.results.store: the HDF5 run store (writer, reader, crash safety)."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ import pytest
 
 import auvdock
 from auvdock.controllers.status import STATUS_FAILED, STATUS_NAMES, STATUS_OK
-from auvdock.results import (
+from auvdock.results.store import (
     BASE_SERIES,
     FORMAT,
     RunWriter,

@@ -13,8 +13,8 @@ from pathlib import Path
 import pytest
 from helpers.plant import plant
 
-from auvdock.mission import load_mission
-from auvdock.simulation import simulate
+from auvdock.config.mission import load_mission
+from auvdock.loop.simulation import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -40,7 +40,7 @@ def test_robust_fse_docks_with_plant_model_error(controller) -> None:
     model's error as a current (while the vehicle hardly turns, a 0.3 m/s^2 residual is metres per
     second of flow); the robust one gates such updates and reads the pose's own motion too, so
     its estimate stays near the true still water and the controller docks."""
-    from auvdock.autopilot import build_autopilot
+    from auvdock.loop.autopilot import build_autopilot
 
     m = load_mission(ROOT / "missions" / "tank_0p6hz.yaml").with_updates(**{"controller.type": controller})
     truth = plant(m, thruster_gain=0.88, buoyancy_N=1.0165, linear_damping=1.3, quadratic_damping=1.3)

@@ -9,10 +9,10 @@ import pytest
 from typer.testing import CliRunner
 
 from auvdock.cli import app
+from auvdock.config.mission import load_mission
 from auvdock.controllers.status import STATUS_NO_STEP, STATUS_OK
-from auvdock.mission import load_mission
-from auvdock.results import read_run
-from auvdock.simulation import simulate
+from auvdock.loop.simulation import simulate
+from auvdock.results.store import read_run
 
 ROOT = Path(__file__).resolve().parents[1]
 runner = CliRunner()

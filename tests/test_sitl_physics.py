@@ -1,4 +1,4 @@
-"""auvdock as the physics backend of ArduPilot SITL's JSON interface (auvdock.hardware.sitl_physics).
+"""auvdock as the physics backend of ArduPilot SITL's JSON interface (auvdock.standins.sitl_physics).
 
 No SITL here: the SITL side is a plain UDP socket in the test that speaks SIM_JSON's protocol
 (binary servo frames in, one JSON line between newlines back) on 127.0.0.1.  The server
@@ -23,9 +23,8 @@ from helpers.loopback import free_udp_pair
 from typer.testing import CliRunner
 
 from auvdock.cli import app
-from auvdock.hardware.ardusub import PWM_PER_UNIT, mix, motor_pwm, t200_pwm_to_force, thrust_from_channels
-from auvdock.hardware.plant import TruthPlant
-from auvdock.hardware.sitl_physics import (
+from auvdock.config.mission import load_mission
+from auvdock.standins.sitl_physics import (
     DESCENT_SPEED_M_S,
     MAGIC_16,
     MAGIC_32,
@@ -36,7 +35,8 @@ from auvdock.hardware.sitl_physics import (
     parse_listen,
     parse_servo_frame,
 )
-from auvdock.mission import load_mission
+from auvdock.vehicle.ardusub import PWM_PER_UNIT, mix, motor_pwm, t200_pwm_to_force, thrust_from_channels
+from auvdock.world.plant import TruthPlant
 
 ROOT = Path(__file__).resolve().parents[1]
 MISSIONS = ROOT / "missions"

@@ -7,11 +7,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from auvdock.config.mission import load_mission
 from auvdock.controllers import SOLVERS, build_controller, resolve_solver
 from auvdock.controllers.rti import COLD_START_MAX_ITER
 from auvdock.controllers.status import STATUS_FAILED, STATUS_OK
-from auvdock.mission import load_mission
-from auvdock.simulation import simulate
+from auvdock.loop.simulation import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
 FLOW = np.array([0.5, 0.5, 0.0])  # case 2's current, NED m/s

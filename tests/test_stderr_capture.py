@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import os
 
-from auvdock.stderr_capture import StderrCapture
+from auvdock.runtime.stderr_capture import StderrCapture
 
 
 def test_fd2_output_is_counted_and_new_lines_reported(capfd) -> None:

@@ -85,7 +85,7 @@ def test_no_import_cycles() -> None:
 
 
 def test_shipped_missions_are_in_the_package() -> None:
-    from auvdock.catalog import PAPER_MISSIONS, missions_dir, resolve, shipped_missions, shipped_sweeps
+    from auvdock.config.catalog import PAPER_MISSIONS, missions_dir, resolve, shipped_missions, shipped_sweeps
 
     names = {f.name for f in shipped_missions()}
     assert set(PAPER_MISSIONS) <= names and {"tank_0p6hz", "tank_bluerov2"} <= names

@@ -1,4 +1,4 @@
-"""Monte Carlo sweeps (:mod:`auvdock.sweep`, :mod:`auvdock.sweep_stats`) on the campaign engine.
+"""Monte Carlo sweeps (:mod:`auvdock.sweep`, :mod:`auvdock.sweep.stats`) on the campaign engine.
 
 The sweeps here are short (2.5 s of simulated time, still water, 8 runs): nothing docks,
 which is fine -- the sweep machinery is under test, the controllers are tested elsewhere.
@@ -22,11 +22,11 @@ from typer.testing import CliRunner
 
 from auvdock.campaign import ResultsFileError, execute_run
 from auvdock.cli import app
-from auvdock.mission import MissionError, load_mission
-from auvdock.results import read_run
-from auvdock.simulation import simulate
+from auvdock.config.mission import MissionError, load_mission
+from auvdock.loop.simulation import simulate
+from auvdock.results.store import read_run
 from auvdock.sweep import SweepError, expand_sweep, load_sweep, read_sweep, run_sweep
-from auvdock.sweep_stats import report_sweep, wilson_interval
+from auvdock.sweep.stats import report_sweep, wilson_interval
 
 ROOT = Path(__file__).resolve().parents[1]
 STILL = ROOT / "missions" / "still.yaml"
@@ -218,7 +218,7 @@ def test_missing_base_file(tmp_path: Path) -> None:
 
 
 def test_model_error_reaches_the_truth_model_only(tmp_path: Path, monkeypatch) -> None:
-    import auvdock.autopilot as autopilot_mod
+    import auvdock.loop.autopilot as autopilot_mod
     from auvdock.vehicle import Vehicle
 
     text = f"""\
@@ -275,14 +275,14 @@ timeout_s: 1.0
 
 
 def test_a_run_that_raises_is_recorded_not_raised(tmp_path: Path, monkeypatch) -> None:
-    import auvdock.simulation
+    import auvdock.loop.simulation
 
     spec = expand_sweep(load_sweep(_write(tmp_path, "oops")))[0]
 
     def boom(*a, **k):
         raise FloatingPointError("solver blew up")
 
-    monkeypatch.setattr(auvdock.simulation, "simulate", boom)
+    monkeypatch.setattr(auvdock.loop.simulation, "simulate", boom)
     out = execute_run(spec)
     row = out["row"]
     assert row["error"] == "FloatingPointError: solver blew up" and row["status"] == "failed"

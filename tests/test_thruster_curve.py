@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from auvdock.hardware.ardusub import MOTOR_FACTORS, channels_for_wrench, thrust_from_channels
 from auvdock.vehicle import load_vehicle
+from auvdock.vehicle.ardusub import MOTOR_FACTORS, channels_for_wrench, thrust_from_channels
 from auvdock.vehicle.params import VehicleParamsError, load_params
 from auvdock.vehicle.thrusters import T200, ThrusterCurve, t200_force_to_pwm
 

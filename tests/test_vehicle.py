@@ -17,9 +17,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from auvdock.flow import ConstantCurrent, DoubleGyre
 from auvdock.vehicle import VehicleParamsError, load_vehicle
 from auvdock.vehicle.model import Jeta, Rzyx, Tzyx
+from auvdock.world.flow import ConstantCurrent, DoubleGyre
 
 # --- parameters.md section 1 (typed in here, independently of the YAML file) ------------------
 MASS = 13.5

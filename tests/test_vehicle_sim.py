@@ -1,6 +1,6 @@
-"""The simulated ArduSub vehicle (auvdock.hardware.vehicle_sim), driven by a pymavlink GCS on loopback.
+"""The simulated ArduSub vehicle (auvdock.standins.vehicle_sim), driven by a pymavlink GCS on loopback.
 
-The vehicle and the GCS (the test's thread) share a :class:`auvdock.clock.SimClock`: the
+The vehicle and the GCS (the test's thread) share a :class:`auvdock.runtime.clock.SimClock`: the
 vehicle's thread and the test run in lockstep in simulated time, so rates, the 3 s override
 lapse and the 3 s failsafe are checked exactly and the tests never wait for the wall clock.
 """
@@ -17,16 +17,16 @@ import pytest
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
-from auvdock.clock import SimClock
-from auvdock.hardware.ardusub import MODES, mix, motor_pwm, thrust_from_channels
-from auvdock.hardware.vehicle_sim import (
+from auvdock.config.mission import load_mission
+from auvdock.runtime.clock import SimClock
+from auvdock.standins.vehicle_sim import (
     STREAMS,
     VehicleSim,
     channels_from_manual_control,
     channels_from_override,
     pressure_hpa,
 )
-from auvdock.mission import load_mission
+from auvdock.vehicle.ardusub import MODES, mix, motor_pwm, thrust_from_channels
 
 ROOT = Path(__file__).resolve().parents[1]
 HOST = "127.0.0.1"

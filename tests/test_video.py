@@ -4,7 +4,8 @@ the latest-frame grabber and spec errors.
 Images: the default dock layout rendered by an ideal 320x240 camera (80 deg field of view) approaching the
 panel, or a bright square moving on a dark background. Networking only on 127.0.0.1.
 
-Pacing and waiting are checked in simulated time (:class:`auvdock.clock.SimClock`): exact, at any machine
+Pacing and waiting are checked in simulated time (:class:`auvdock.runtime.clock.SimClock`): exact, at
+any machine
 load. RTP and V4L2 are real devices on the wall clock; nothing here asserts a wall-clock duration.
 """
 
@@ -46,7 +47,7 @@ from auvdock.camera.video import (  # noqa: E402
     open_source,
     stream_rtp,
 )
-from auvdock.clock import SimClock  # noqa: E402
+from auvdock.runtime.clock import SimClock  # noqa: E402
 
 CAM = CameraModel.ideal(320, 240)
 LAYOUT = default_layout()

@@ -17,7 +17,7 @@ import cv2
 import numpy as np
 
 from auvdock.camera.model import CameraModel, gray_image
-from auvdock.clock import Clock, wall_clock
+from auvdock.runtime.clock import Clock, wall_clock
 
 __all__ = [
     "IMAGE_SUFFIXES",
@@ -238,7 +238,8 @@ def collect_views(
     ----------
     source : FrameSource
         E.g. from :func:`auvdock.camera.video.open_source`. It is read without blocking (``read(0)``); the
-        waits between reads are ``clock.sleep`` of at most ``poll_s`` (so a :class:`auvdock.clock.SimClock`
+        waits between reads are ``clock.sleep`` of at most ``poll_s`` (so a
+        :class:`auvdock.runtime.clock.SimClock`
         runs them in simulated time).
     cols, rows : int
         Inner corners of the board.

@@ -34,7 +34,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from auvdock.geometry import rotation_zyx
+from auvdock.vehicle.geometry import rotation_zyx
 
 __all__ = [
     "DICTIONARIES",

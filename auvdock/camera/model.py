@@ -27,9 +27,9 @@ import cv2
 import numpy as np
 import yaml
 
-from ..geometry import rotation_zyx
-from ..vehicle.state import POS
-from ..yamlio import load_yaml_strict
+from auvdock.config.yamlio import load_yaml_strict
+from auvdock.vehicle.geometry import rotation_zyx
+from auvdock.vehicle.state import POS
 
 __all__ = [
     "gray_image",

@@ -23,9 +23,8 @@ import numpy as np
 
 from auvdock.camera.layout import MarkerLayout, aruco_dictionary
 from auvdock.camera.model import CameraModel, CameraMount, gray_image
-from auvdock.geometry import rotation_zyx, wrap_angle
-
-from ..vehicle.state import POS
+from auvdock.vehicle.geometry import rotation_zyx, wrap_angle
+from auvdock.vehicle.state import POS
 
 __all__ = [
     "Detection",

@@ -15,15 +15,15 @@ Pieces, each small:
   controller flies on the tracking filter's prediction between frames), ``holding``
   (neutral thrust) until ``camera.abort_s``, then ``lost`` (the session aborts).
 
-The tracking filter itself is :class:`auvdock.dock.TrackedDock` with a process noise: a
+The tracking filter itself is :class:`auvdock.world.dock.TrackedDock` with a process noise: a
 Kalman filter on the dock's offset from its heave model, so between frames the dock moves as
 the heave model predicts (Assumption 2) and each fix is weighed by its covariance.
 
 Detection runs in its own thread (OpenCV releases the GIL in its image work), so the 20 Hz
 control loop never waits for a frame.
 
-Every wait, frame pacing and time stamp goes through a :class:`auvdock.clock.Clock` (the
-wall clock by default): with the fly session's :class:`auvdock.clock.SimClock` the synthetic
+Every wait, frame pacing and time stamp goes through a :class:`auvdock.runtime.clock.Clock` (the
+wall clock by default): with the fly session's :class:`auvdock.runtime.clock.SimClock` the synthetic
 camera, the frame grabber and the detection thread run in lockstep with the control loop,
 and rendering and detection take no simulated time (latency 0).
 """
@@ -38,15 +38,15 @@ from typing import Any
 
 import numpy as np
 
-from ..clock import Clock, wall_clock
-from ..dock import HeaveDock
-from ..geometry import rotation_zyx
-from ..vehicle.state import POS
-from .layout import MarkerLayout
-from .model import CameraModel, CameraMount, camera_from_dock
-from .pose import MarkerDetector, estimate_dock_pose
-from .render import render_view
-from .video import Frame, LatestFrameGrabber
+from auvdock.camera.layout import MarkerLayout
+from auvdock.camera.model import CameraModel, CameraMount, camera_from_dock
+from auvdock.camera.pose import MarkerDetector, estimate_dock_pose
+from auvdock.camera.render import render_view
+from auvdock.camera.video import Frame, LatestFrameGrabber
+from auvdock.runtime.clock import Clock, wall_clock
+from auvdock.vehicle.geometry import rotation_zyx
+from auvdock.vehicle.state import POS
+from auvdock.world.dock import HeaveDock
 
 __all__ = ["SyntheticCamera", "DockFix", "DockTracker", "TrackingMonitor"]
 

@@ -13,7 +13,7 @@ BlueROV2's camera, through the same decoder, detector and tracking filter::
 
 Frames go out at ``camera.synthetic.rate_hz`` on the stream's clock; each shows the newest
 pose ``pose_fn()`` gives at that moment (a simulator's state, e.g.
-:meth:`auvdock.hardware.sitl_physics.SitlPhysics.pose`), with the dock where it is at that
+:meth:`auvdock.standins.sitl_physics.SitlPhysics.pose`), with the dock where it is at that
 pose's time.  Rendering and encoding happen in the stream's thread.
 """
 
@@ -25,12 +25,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..clock import Clock, wall_clock
-from .tracker import SyntheticCamera
-from .video import stream_rtp
+from auvdock.camera.tracker import SyntheticCamera
+from auvdock.camera.video import stream_rtp
+from auvdock.runtime.clock import Clock, wall_clock
 
 if TYPE_CHECKING:
-    from ..mission import Mission
+    from auvdock.config.mission import Mission
 
 __all__ = ["TruthCameraStream", "PoseFn"]
 

@@ -30,10 +30,12 @@ frame interval plus ~1.5 ms after it was sent (51.5 ms at 20 fps, 34.6 ms at 30 
 takes ~70 ms including the x264 encode. The frame interval comes from FFmpeg's H.264 parser, which completes
 a frame only when the next one begins. Images are (h, w) ``uint8`` arrays.
 
-Clock. Times are s on a :class:`auvdock.clock.Clock` (``time.monotonic()`` with the default wall clock). The
+Clock. Times are s on a :class:`auvdock.runtime.clock.Clock` (``time.monotonic()`` with the default wall
+clock). The
 sources that pace themselves (video files and image folders with ``realtime``), :class:`LatestFrameGrabber`
 and :func:`stream_rtp` take a ``clock``, so that they can run in simulated time
-(:class:`auvdock.clock.SimClock`, for tests); live sources (RTP, V4L2) run on the wall clock only: their
+(:class:`auvdock.runtime.clock.SimClock`, for tests); live sources (RTP, V4L2) run on the wall clock
+only: their
 frames come from devices and FFmpeg in real time.
 """
 
@@ -60,8 +62,8 @@ from typing import Any, Protocol, Self, runtime_checkable
 import cv2
 import numpy as np
 
-from ..clock import Clock, wall_clock
-from .model import gray_image
+from auvdock.camera.model import gray_image
+from auvdock.runtime.clock import Clock, wall_clock
 
 __all__ = [
     "RTP_PAYLOAD_TYPE",

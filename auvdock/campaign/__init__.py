@@ -19,8 +19,8 @@ module             job
 =================  ======================================================================
 
 The sweep plan (grid, random draws, model error) is :mod:`auvdock.sweep`; its statistics
-and figures :mod:`auvdock.sweep_stats`; a compare campaign's figures
-:mod:`auvdock.campaign_plots`.  The tables, findings and figures are computed from the
+and figures :mod:`auvdock.sweep.stats`; a compare campaign's figures
+:mod:`auvdock.campaign.plots`.  The tables, findings and figures are computed from the
 results file alone, so ``auvdock report`` rebuilds them without running anything.
 """
 
@@ -29,8 +29,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from ..catalog import PAPER_MISSIONS
-from .compare import (
+from auvdock.campaign.compare import (
     COMPARE_LABELS,
     TABLE_COLUMNS,
     campaign_specs,
@@ -39,14 +38,15 @@ from .compare import (
     default_missions_dir,
     run_campaign,
 )
-from .engine import CampaignResult, run_plan
-from .executor import DaskExecutor, ExecutorError, LocalExecutor
-from .findings import Finding, check_findings
-from .machine import machine_info, machine_line
-from .spec import ID_COLUMNS, OUTCOME_COLUMNS, Plan, RunSpec
-from .store import FORMAT, FORMAT_VERSION, ResultsFileError, read_results, read_run_groups
-from .tables import SUMMARY_HEADER, summary_rows, write_tables
-from .worker import execute_run
+from auvdock.campaign.engine import CampaignResult, run_plan
+from auvdock.campaign.executor import DaskExecutor, ExecutorError, LocalExecutor
+from auvdock.campaign.findings import Finding, check_findings
+from auvdock.campaign.machine import machine_info, machine_line
+from auvdock.campaign.spec import ID_COLUMNS, OUTCOME_COLUMNS, Plan, RunSpec
+from auvdock.campaign.store import FORMAT, FORMAT_VERSION, ResultsFileError, read_results, read_run_groups
+from auvdock.campaign.tables import SUMMARY_HEADER, summary_rows, write_tables
+from auvdock.campaign.worker import execute_run
+from auvdock.config.catalog import PAPER_MISSIONS
 
 __all__ = [
     "PAPER_MISSIONS",

@@ -12,11 +12,11 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from ..catalog import PAPER_MISSIONS, missions_dir, resolve
-from .engine import CampaignResult, EventFn, run_plan
-from .executor import Runner
-from .spec import ID_COLUMNS, OUTCOME_COLUMNS, Plan, RunSpec, apply_overrides, mission_data
-from .worker import execute_run
+from auvdock.campaign.engine import CampaignResult, EventFn, run_plan
+from auvdock.campaign.executor import Runner
+from auvdock.campaign.spec import ID_COLUMNS, OUTCOME_COLUMNS, Plan, RunSpec, apply_overrides, mission_data
+from auvdock.campaign.worker import execute_run
+from auvdock.config.catalog import PAPER_MISSIONS, missions_dir, resolve
 
 __all__ = [
     "PAPER_MISSIONS",
@@ -36,7 +36,7 @@ TABLE_COLUMNS: dict[str, str] = {**ID_COLUMNS, **COMPARE_LABELS, **OUTCOME_COLUM
 
 
 def default_missions_dir() -> Path:
-    """The shipped missions folder (installed with the package; :mod:`auvdock.catalog`)."""
+    """The shipped missions folder (installed with the package; :mod:`auvdock.config.catalog`)."""
     return missions_dir()
 
 
@@ -46,7 +46,7 @@ def default_missions() -> list[Path]:
 
 
 def _case_info(mission) -> tuple[str, int]:
-    from ..flow import FLOW_CASE_ALIASES, FLOW_CASES
+    from auvdock.world.flow import FLOW_CASE_ALIASES, FLOW_CASES
 
     desc = mission.build_flow().describe()
     case = mission.flow.case
@@ -74,13 +74,13 @@ def campaign_specs(
 
     Raises
     ------
-    auvdock.mission.MissionError
+    auvdock.config.mission.MissionError
         If a mission file is invalid, or invalid with the overrides (checked here, before
         anything runs).
     ValueError
         If two missions have the same name.
     """
-    from ..mission import load_mission
+    from auvdock.config.mission import load_mission
 
     specs: list[RunSpec] = []
     seen: dict[str, str] = {}

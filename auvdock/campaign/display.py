@@ -22,7 +22,7 @@ from rich.progress import (
     TimeElapsedColumn,
 )
 
-from .spec import RunSpec
+from auvdock.campaign.spec import RunSpec
 
 __all__ = ["CampaignProgress", "outcome_text"]
 

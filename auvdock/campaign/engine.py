@@ -22,10 +22,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .executor import DaskExecutor, LocalExecutor, Runner
-from .spec import Plan, RunSpec, empty_row
-from .store import ResultsStore, read_results
-from .worker import execute_run
+from auvdock.campaign.executor import DaskExecutor, LocalExecutor, Runner
+from auvdock.campaign.spec import Plan, RunSpec, empty_row
+from auvdock.campaign.store import ResultsStore, read_results
+from auvdock.campaign.worker import execute_run
 
 __all__ = ["EventFn", "CampaignResult", "run_plan", "make_executor"]
 

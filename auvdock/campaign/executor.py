@@ -43,8 +43,8 @@ from multiprocessing.connection import wait as mp_wait
 from pathlib import Path
 from typing import Any
 
-from .spec import RunSpec
-from .worker import execute_run
+from auvdock.campaign.spec import RunSpec
+from auvdock.campaign.worker import execute_run
 
 __all__ = ["Event", "Runner", "LocalExecutor", "DaskExecutor", "ExecutorError"]
 

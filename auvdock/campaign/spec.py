@@ -17,8 +17,8 @@ from typing import Any
 
 from pydantic import ValidationError
 
-from ..mission import Mission, MissionError
-from ..schema import first_error
+from auvdock.config.mission import Mission, MissionError
+from auvdock.config.schema import first_error
 
 __all__ = [
     "ID_COLUMNS",
@@ -86,7 +86,7 @@ class RunSpec:
     labels : dict
         Values of the plan's label columns for this run (``case``, ``point``, ...).
     group : str or None
-        The run group (:mod:`auvdock.results` layout) that keeps the run's trajectory in
+        The run group (:mod:`auvdock.results.store` layout) that keeps the run's trajectory in
         the results file, e.g. ``/runs/still/oracle``; None: the table row only.
     """
 

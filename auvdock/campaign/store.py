@@ -11,7 +11,7 @@
                                lists and dicts as JSON text, named in json_attrs)
     /campaign_table     compound dataset, one row per run that ended (done or failed),
                         in the order they ended; attrs: columns (JSON name -> kind)
-    /runs/...           run groups in the layout of ``auvdock sim`` (:mod:`auvdock.results`):
+    /runs/...           run groups in the layout of ``auvdock sim`` (:mod:`auvdock.results.store`):
                         ``/runs/<case>/<controller>`` (compare), ``/runs/<run id>`` (a sweep
                         with --trajectories)
 
@@ -37,10 +37,10 @@ from typing import Any
 import h5py
 import numpy as np
 
-from .. import __version__
-from ..interrupts import SigintDeferred
-from ..results import list_runs, open_format, read_run
-from .spec import Plan, RunSpec
+from auvdock import __version__
+from auvdock.campaign.spec import Plan, RunSpec
+from auvdock.results.store import list_runs, open_format, read_run
+from auvdock.runtime.interrupts import SigintDeferred
 
 __all__ = [
     "FORMAT",
@@ -212,7 +212,7 @@ class ResultsStore:
         self, *, command_line: str = "", executor: str = "", workers: int = 0, resume: bool = False
     ) -> None:
         """Record this session: command line (``resumed_with`` when resuming), machine, executor, plan."""
-        from .machine import machine_info
+        from auvdock.campaign.machine import machine_info
 
         a = self.f.attrs
         if resume and "command_line" in a:
@@ -273,7 +273,7 @@ class ResultsStore:
 
     def put(self, row: dict[str, Any], image: bytes | None, group: str | None) -> None:
         """Write one run: its run group (from the worker's file image) first, then its row; flush."""
-        from .worker import RUN_GROUP
+        from auvdock.campaign.worker import RUN_GROUP
 
         with SigintDeferred():
             if group is not None:

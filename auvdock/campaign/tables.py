@@ -9,8 +9,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from .compare import TABLE_COLUMNS
-from .findings import check_findings
+from auvdock.campaign.compare import TABLE_COLUMNS
+from auvdock.campaign.findings import check_findings
 
 __all__ = ["SUMMARY_HEADER", "FINDINGS_HEADER", "summary_rows", "markdown_table", "write_tables"]
 

@@ -1,8 +1,8 @@
 """One run, in whatever process runs it: :func:`execute_run`.
 
 It builds the run's nominal and truth missions, the autopilot from the nominal one
-(:func:`auvdock.autopilot.build_autopilot`, timed: that is where solvers are built and
-compiled), flies the truth plant with it (:func:`auvdock.simulation.simulate`), and
+(:func:`auvdock.loop.autopilot.build_autopilot`, timed: that is where solvers are built and
+compiled), flies the truth plant with it (:func:`auvdock.loop.simulation.simulate`), and
 returns plain data: the run's table row and, when the spec names a run group, the run as
 an HDF5 file image (bytes), which the driver copies into the results file.  Nothing here
 writes to the results file and nothing needs a file system shared with the driver.
@@ -18,7 +18,7 @@ import traceback
 from collections.abc import Callable
 from typing import Any
 
-from .spec import OUTCOME_COLUMNS, RunSpec, apply_overrides, empty_row
+from auvdock.campaign.spec import OUTCOME_COLUMNS, RunSpec, apply_overrides, empty_row
 
 __all__ = ["RUN_GROUP", "ProgressFn", "execute_run", "worker_name"]
 
@@ -45,8 +45,8 @@ def execute_run(spec: RunSpec, progress: ProgressFn | None = None) -> dict[str, 
     """
     import h5py
 
-    from ..autopilot import build_autopilot
-    from ..simulation import simulate
+    from auvdock.loop.autopilot import build_autopilot
+    from auvdock.loop.simulation import simulate
 
     row = empty_row(spec, {**OUTCOME_COLUMNS})
     row["worker"] = worker_name()

@@ -39,7 +39,7 @@ if _MAIN_THREAD:
 
 # the commands are registered in this order (the order of --help)
 # isort: off
-from . import validate, sim, campaign, fly, sitl, bench, camera, cache  # noqa: F401, E402
+from auvdock.cli import validate, sim, campaign, fly, sitl, bench, camera, cache  # noqa: F401, E402
 
 # isort: on
 try:  # typer vendors click since 0.2x; older ones use click itself
@@ -47,7 +47,7 @@ try:  # typer vendors click since 0.2x; older ones use click itself
 except ImportError:  # pragma: no cover
     from click import exceptions as _cx  # noqa: E402
 
-from .app import app, err_console, interrupt_reported  # noqa: E402
+from auvdock.cli.app import app, err_console, interrupt_reported  # noqa: E402
 
 if _MAIN_THREAD:
     signal.signal(signal.SIGINT, _previous_sigint)

@@ -1,3 +1,3 @@
-from . import main
+from auvdock.cli import main
 
 main()

@@ -14,8 +14,8 @@ from pathlib import Path
 import typer
 from rich.console import Console
 
-from .. import __version__
-from ..mission import Mission, MissionError, load_mission
+from auvdock import __version__
+from auvdock.config.mission import Mission, MissionError, load_mission
 
 
 def _usage_name(self) -> str:  # noqa: ANN001 -- a method of typer.core.TyperArgument
@@ -89,7 +89,7 @@ def output_dir(path: Path, option: str = "--out") -> Path:
 
 def load_or_exit(path: Path) -> Mission:
     """Load a mission file, or a shipped mission by name (``gyre``), or exit 2 with one line."""
-    from ..catalog import resolve
+    from auvdock.config.catalog import resolve
 
     try:
         return load_mission(resolve(path))
@@ -111,7 +111,7 @@ def _main(
     ),
 ) -> None:
     """auvdock: flow-state-estimating MPC docking for underwater vehicles."""
-    from ..codegen import set_reporter
+    from auvdock.runtime.codegen import set_reporter
 
     set_reporter(_compile_notice, _background_notice)
 
@@ -131,7 +131,7 @@ def split_list(values: list[str] | None) -> list[str]:
 def controller_list(controllers: list[str] | None, variants: bool = False) -> list[str]:
     """``--controllers`` (comma-separated or repeated; ``NAME`` or ``NAME@VARIANT``; default all
     five, and with ``variants`` each also ``@paper``), or exit 2 naming the bad one."""
-    from ..controllers import controller_specs
+    from auvdock.controllers import controller_specs
 
     ctrls = split_list(controllers) or list(controller_specs(variants))
     for c in ctrls:
@@ -141,7 +141,7 @@ def controller_list(controllers: list[str] | None, variants: bool = False) -> li
 
 def check_controller(spec: str, option: str = "--controller") -> str:
     """A controller spec (``NAME`` or ``NAME@VARIANT``), or exit 2 with one line naming the problem."""
-    from ..controllers import split_controller
+    from auvdock.controllers import split_controller
 
     try:
         split_controller(spec)

@@ -6,8 +6,8 @@ from typing import Any
 
 import typer
 
-from .app import app, console, controller_list, fail_input, positive_timeout, split_list
-from .tables import fitted_table
+from auvdock.cli.app import app, console, controller_list, fail_input, positive_timeout, split_list
+from auvdock.cli.tables import fitted_table
 
 
 @app.command()
@@ -41,15 +41,15 @@ def bench(
     import json
     import os
 
-    from ..codegen import compile_mode
+    from auvdock.runtime.codegen import compile_mode
 
     if compile_mode() == "auto":
         os.environ["AUVDOCK_COMPILE"] = "wait"
 
-    from ..bench import DEFAULT_CASES, bench_rows, machine_line
-    from ..controllers.rti import QP_SOLVERS
-    from ..mission import SOLVER_NAMES
-    from ..timing import PARTS
+    from auvdock.campaign.bench import DEFAULT_CASES, bench_rows, machine_line
+    from auvdock.config.mission import SOLVER_NAMES
+    from auvdock.controllers.rti import QP_SOLVERS
+    from auvdock.runtime.timing import PARTS
 
     ctrls = controller_list(controllers)
     solv = split_list(solvers) or ["auto"]
@@ -110,7 +110,7 @@ def bench(
                           for n in names), f"{pm['python']:.2f}", f"{r['median_ms']:.2f}"])  # fmt: skip
     console.print(
         fitted_table(
-            "where a step's time goes: median ms per part (auvdock.timing)",
+            "where a step's time goes: median ms per part (auvdock.runtime.timing)",
             ("case", "controller", "solver", *names, "python", "step"),
             part_rows,
             console.width,

@@ -4,16 +4,16 @@ from __future__ import annotations
 
 import typer
 
-from .app import app, console
+from auvdock.cli.app import app, console
 
-cache_app = typer.Typer(help="The compiled-solver cache (see auvdock.codegen).", no_args_is_help=True)
+cache_app = typer.Typer(help="The compiled-solver cache (see auvdock.runtime.codegen).", no_args_is_help=True)
 app.add_typer(cache_app, name="cache")
 
 
 @cache_app.command("info")
 def cache_info() -> None:
     """Where the compiled solvers are, how many, how large; and whether compiling is possible."""
-    from ..codegen import cache_dir, cache_entries, compile_mode, find_compiler
+    from auvdock.runtime.codegen import cache_dir, cache_entries, compile_mode, find_compiler
 
     entries = cache_entries()
     total = sum(n for _, n in entries)
@@ -30,7 +30,7 @@ def cache_info() -> None:
 @cache_app.command("clear")
 def cache_clear() -> None:
     """Remove every compiled solver from the cache."""
-    from ..codegen import cache_dir, clear_cache
+    from auvdock.runtime.codegen import cache_dir, clear_cache
 
     n = clear_cache()
     console.print(f"removed {n} compiled solver{'s' if n != 1 else ''} from {cache_dir()}")

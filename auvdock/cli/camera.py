@@ -2,7 +2,8 @@
 
 ``markers`` tiles the dock's panel at true scale over A4 or Letter pages (``--paper``), in the format the
 ``--out`` suffix names (PDF, PNG, JPEG). A live calibration waits on :data:`clock` (the wall clock; a test
-may set a :class:`auvdock.clock.SimClock`): for the first frame at most ``--wait`` seconds, saying every 5 s
+may set a :class:`auvdock.runtime.clock.SimClock`): for the first frame at most ``--wait`` seconds,
+saying every 5 s
 what it waits for, then exits 2 with one line if no video came.
 """
 
@@ -15,8 +16,8 @@ import yaml
 from rich import box
 from rich.table import Table
 
-from ..clock import Clock, wall_clock
-from .app import app, console, exit_interrupted, fail_input, load_or_exit, output_dir
+from auvdock.cli.app import app, console, exit_interrupted, fail_input, load_or_exit, output_dir
+from auvdock.runtime.clock import Clock, wall_clock
 
 #: The clock a live calibration waits on.
 clock: Clock = wall_clock
@@ -24,7 +25,7 @@ clock: Clock = wall_clock
 
 def _load_layout(path: Path):
     """A marker layout from a mission file (its dock.markers) or a layout YAML file."""
-    from ..camera.layout import MarkerLayout
+    from auvdock.camera.layout import MarkerLayout
 
     if not path.is_file():
         fail_input(f"{path}: no such file")
@@ -47,7 +48,7 @@ def _say(line: str) -> None:
 def _sheet_target(out: Path | None, layout: Path, pdf: bool) -> Path:
     """The file ``--out`` names (default ``<layout>_markers.pdf/.png``), or exit 2 with one line: a
     directory, a suffix that is not .pdf / .png / .jpg / .jpeg, a parent that cannot be a directory."""
-    from ..camera.layout import sheet_format
+    from auvdock.camera.layout import sheet_format
 
     default = f"{layout.stem}_markers.{'pdf' if pdf else 'png'}"
     target = out or Path(default)
@@ -85,7 +86,7 @@ def markers(
     pdf: bool = typer.Option(True, "--pdf/--png", help="Format when --out has no suffix: PDF or PNG."),
 ) -> None:
     """Print the dock's marker sheet at true scale on A4 or Letter (print at 100 %, check the 100 mm bar)."""
-    from ..camera.layout import PAPER_MM, plan_pages, write_pages
+    from auvdock.camera.layout import PAPER_MM, plan_pages, write_pages
 
     if paper.lower() not in PAPER_MM:
         fail_input(f"--paper {paper}: expected {' or '.join(PAPER_MM)}")
@@ -133,7 +134,7 @@ def _parse_board(board: str) -> tuple[int, int]:
 
 def _live_names(src: object) -> tuple[str, str, str]:
     """(the source in messages, what its wait is for, a hint when no video came) of a live source."""
-    from ..camera.video import RtpSource, V4l2Source
+    from auvdock.camera.video import RtpSource, V4l2Source
 
     if isinstance(src, RtpSource):
         where = f"UDP port {src.port}" if src.host == "0.0.0.0" else f"UDP {src.host}:{src.port}"
@@ -170,9 +171,9 @@ def calibrate(
     every: int = typer.Option(1, "--every", min=1, help="Video file: use every Nth frame."),
 ) -> None:
     """OpenCV checkerboard calibration: writes the camera file missions point to (camera.calibration)."""
-    from ..camera.calibration import NoVideoError, collect_views, image_sources
-    from ..camera.calibration import calibrate as run_calibration
-    from ..camera.model import save_camera
+    from auvdock.camera.calibration import NoVideoError, collect_views, image_sources
+    from auvdock.camera.calibration import calibrate as run_calibration
+    from auvdock.camera.model import save_camera
 
     cols, rows = _parse_board(board)
     images = []
@@ -182,7 +183,7 @@ def calibrate(
         except ValueError as e:
             fail_input(str(e))
     else:
-        from ..camera.video import VideoSourceError, open_source
+        from auvdock.camera.video import VideoSourceError, open_source
 
         try:
             src = open_source(source, clock=clock)

@@ -15,9 +15,17 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from ..mission import MissionError
-from .app import app, console, controller_list, exit_interrupted, fail_input, output_dir, positive_timeout
-from .tables import fitted_table
+from auvdock.cli.app import (
+    app,
+    console,
+    controller_list,
+    exit_interrupted,
+    fail_input,
+    output_dir,
+    positive_timeout,
+)
+from auvdock.cli.tables import fitted_table
+from auvdock.config.mission import MissionError
 
 
 def _interrupted(path: Path) -> None:
@@ -26,7 +34,7 @@ def _interrupted(path: Path) -> None:
 
 def _campaign_outputs(path: Path, out_dir: Path, *, pdf: bool, plots: bool, records=None, attrs=None) -> None:
     """Tables, findings and figures of a compare campaign file, printed and written to ``out_dir``."""
-    from ..campaign import SUMMARY_HEADER, check_findings, read_campaign, summary_rows, write_tables
+    from auvdock.campaign import SUMMARY_HEADER, check_findings, read_campaign, summary_rows, write_tables
 
     if records is None or attrs is None:
         records, attrs = read_campaign(path)
@@ -59,8 +67,8 @@ def _campaign_outputs(path: Path, out_dir: Path, *, pdf: bool, plots: bool, reco
     console.print(ft)
     written = write_tables(records, out_dir, attrs)
     if plots and records:
-        from ..campaign import read_campaign_runs
-        from ..campaign_plots import plot_campaign
+        from auvdock.campaign import read_campaign_runs
+        from auvdock.campaign.plots import plot_campaign
 
         runs = read_campaign_runs(path)
         written += plot_campaign(records, runs, out_dir, formats=("png", "pdf") if pdf else ("png",))
@@ -69,8 +77,8 @@ def _campaign_outputs(path: Path, out_dir: Path, *, pdf: bool, plots: bool, reco
 
 def _sweep_outputs(path: Path, out_dir: Path, title: str) -> list[Path]:
     """The success table printed; summary.md and the figures written (from the file alone)."""
-    from ..sweep import read_sweep
-    from ..sweep_stats import report_sweep, success_table
+    from auvdock.sweep import read_sweep
+    from auvdock.sweep.stats import report_sweep, success_table
 
     rows, _ = read_sweep(path)
     header, table_rows = success_table(rows)
@@ -145,7 +153,7 @@ def compare(
     no_plots: bool = typer.Option(False, "--no-plots", help="Skip the figures."),
 ) -> None:
     """Run the paper's six-case study (cases x controllers) in parallel, with tables and figures."""
-    from ..campaign import (
+    from auvdock.campaign import (
         ExecutorError,
         ResultsFileError,
         campaign_specs,
@@ -153,9 +161,9 @@ def compare(
         default_missions,
         run_plan,
     )
-    from ..campaign.display import CampaignProgress
-    from ..campaign.store import check_output
-    from ..catalog import resolve
+    from auvdock.campaign.display import CampaignProgress
+    from auvdock.campaign.store import check_output
+    from auvdock.config.catalog import resolve
 
     ctrls = controller_list(controllers, variants=True)
     given = list(missions or [])
@@ -228,7 +236,7 @@ def report(
     no_plots: bool = typer.Option(False, "--no-plots", help="Skip the figures (compare)."),
 ) -> None:
     """Rebuild a campaign's or sweep's tables, findings and figures from its HDF5 file alone."""
-    from ..campaign import read_results
+    from auvdock.campaign import read_results
 
     if not results.is_file():
         fail_input(f"{results}: file not found")
@@ -268,10 +276,10 @@ def sweep(
     trajectories: bool = typer.Option(False, "--trajectories", help="Also keep every run's trajectory."),
 ) -> None:
     """Monte Carlo robustness campaign: success rates with Wilson intervals, figures, summary."""
-    from ..campaign import ExecutorError, ResultsFileError, run_plan
-    from ..campaign.display import CampaignProgress
-    from ..campaign.store import check_output
-    from ..sweep import RESULTS_NAME, SweepError, load_sweep, sweep_plan
+    from auvdock.campaign import ExecutorError, ResultsFileError, run_plan
+    from auvdock.campaign.display import CampaignProgress
+    from auvdock.campaign.store import check_output
+    from auvdock.sweep import RESULTS_NAME, SweepError, load_sweep, sweep_plan
 
     try:
         s = load_sweep(sweep_file)

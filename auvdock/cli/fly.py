@@ -1,7 +1,7 @@
 """``auvdock fly`` and ``auvdock vehicle-sim``: the MAVLink vehicle and its rehearsal.
 
 Both run on :data:`clock`, the wall clock.  Tests replace it with a
-:class:`auvdock.clock.SimClock` shared with an in-process vehicle simulator
+:class:`auvdock.runtime.clock.SimClock` shared with an in-process vehicle simulator
 (``monkeypatch.setattr(auvdock.cli.fly, "clock", sim_clock)``) to run the commands in
 simulated time.
 """
@@ -14,9 +14,7 @@ from pathlib import Path
 import typer
 from rich.markup import escape
 
-from ..clock import Clock, wall_clock
-from ..mission import MissionError
-from .app import (
+from auvdock.cli.app import (
     app,
     check_controller,
     console,
@@ -27,6 +25,8 @@ from .app import (
     output_dir,
     positive_timeout,
 )
+from auvdock.config.mission import MissionError
+from auvdock.runtime.clock import Clock, wall_clock
 
 #: The clock ``fly`` and ``vehicle-sim`` wait and pace on.
 clock: Clock = wall_clock
@@ -94,8 +94,8 @@ def fly(
     someone else takes the vehicle.  Exit status: 0 docked, 1 not docked in time, 2 bad input,
     3 aborted (a check, a limit, lost telemetry, arming refused), 4 takeover, 130 Ctrl-C.
     """
-    from ..fly import FlySession
-    from ..hardware.link import MavlinkLink, connection_string
+    from auvdock.fly import FlySession
+    from auvdock.fly.link import MavlinkLink, connection_string
 
     m = load_or_exit(mission)
     if estimation is not None:
@@ -196,9 +196,9 @@ def vehicle_sim(
     ),
 ) -> None:
     """Run auvdock's 6-DOF simulator as an ArduSub MAVLink vehicle (for rehearsing and testing fly)."""
-    from ..catalog import missions_dir
-    from ..hardware.link import connection_string
-    from ..hardware.vehicle_sim import VehicleSim
+    from auvdock.config.catalog import missions_dir
+    from auvdock.fly.link import connection_string
+    from auvdock.standins.vehicle_sim import VehicleSim
 
     try:
         port = connection_string(port)
@@ -240,9 +240,9 @@ def replay(
     the flight's mission and controller the outputs equal the flight's.  If the flight's
     results file lies beside the tlog, the largest thrust difference is printed.
     """
-    from ..fly.replay import ReplayError
-    from ..fly.replay import replay as run_replay
-    from ..results import read_run
+    from auvdock.fly.replay import ReplayError
+    from auvdock.fly.replay import replay as run_replay
+    from auvdock.results.store import read_run
 
     if not tlog.is_file():
         fail_input(f"{tlog}: no such file")

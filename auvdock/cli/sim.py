@@ -12,8 +12,7 @@ import yaml
 from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from ..mission import MissionError
-from .app import (
+from auvdock.cli.app import (
     app,
     check_controller,
     console,
@@ -24,9 +23,10 @@ from .app import (
     output_dir,
     positive_timeout,
 )
+from auvdock.config.mission import MissionError
 
 if TYPE_CHECKING:
-    from ..simulation import Progress as SimProgress
+    from auvdock.loop.simulation import Progress as SimProgress
 
 
 def _summary_table(title: str, outcome: dict[str, Any]) -> Table:
@@ -102,9 +102,9 @@ def sim(
     ),
 ) -> None:
     """Run one closed-loop docking simulation: HDF5 results, summary table and plots."""
-    from ..plots import plot_run
-    from ..results import read_run
-    from ..simulation import simulate
+    from auvdock.loop.simulation import simulate
+    from auvdock.results.plots import plot_run
+    from auvdock.results.store import read_run
 
     m = load_or_exit(mission)
     if controller is not None:
@@ -137,14 +137,14 @@ def sim(
     h5 = out_dir / f"{m.name}_{name}.h5"
     limit = m.docking.timeout_s if timeout is None else timeout
 
-    from ..controllers import resolve_solver
+    from auvdock.controllers import resolve_solver
 
     solver = resolve_solver(m.controller.solver.name, m.controller.type, m.controller.variant)
     console.print(
         f"[bold]{m.name}[/bold]: {m.build_flow().describe()}; controller [bold]{name}[/bold] "
         f"(N = {m.controller.horizon_steps}, dt = {m.controller.dt_s} s, {solver})"
     )
-    from ..autopilot import build_autopilot
+    from auvdock.loop.autopilot import build_autopilot
 
     # build (and, the first time, compile) the controller before the progress display starts
     ap = build_autopilot(m, m.build_vehicle(), m.build_dock())
@@ -194,9 +194,9 @@ def plot(
     ),
 ) -> None:
     """Redraw the plots of a results file from the file alone."""
-    from ..mission import parse_mission
-    from ..plots import plot_run
-    from ..results import read_run
+    from auvdock.config.mission import parse_mission
+    from auvdock.results.plots import plot_run
+    from auvdock.results.store import read_run
 
     if not results.is_file():
         fail_input(f"{results}: file not found")

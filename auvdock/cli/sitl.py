@@ -1,7 +1,7 @@
 """``auvdock sitl-physics``: auvdock's truth model as the physics of ArduPilot SITL (``--model JSON``).
 
 The real ArduSub firmware runs in SITL; this command moves its vehicle
-(:class:`auvdock.hardware.sitl_physics.SitlPhysics`) and, with ``--camera``, streams the
+(:class:`auvdock.standins.sitl_physics.SitlPhysics`) and, with ``--camera``, streams the
 camera's view of the true pose as RTP/H.264
 (:class:`auvdock.camera.truth_stream.TruthCameraStream`).  ``docs/sitl.md`` says how to run
 the three programs together.
@@ -25,13 +25,13 @@ from typing import TYPE_CHECKING
 
 import typer
 
-from ..clock import Clock, wall_clock
-from ..mission import MissionError
-from .app import app, console, err_console, exit_interrupted, fail_input, load_or_exit
+from auvdock.cli.app import app, console, err_console, exit_interrupted, fail_input, load_or_exit
+from auvdock.config.mission import MissionError
+from auvdock.runtime.clock import Clock, wall_clock
 
 if TYPE_CHECKING:
-    from ..camera.truth_stream import TruthCameraStream
-    from ..hardware.sitl_physics import PhysicsEvent, SitlPhysics
+    from auvdock.camera.truth_stream import TruthCameraStream
+    from auvdock.standins.sitl_physics import PhysicsEvent, SitlPhysics
 
 #: The clock ``sitl-physics`` waits on.
 clock: Clock = wall_clock
@@ -112,7 +112,7 @@ def sitl_physics(
     ),
 ) -> None:
     """Be the physics of ArduPilot SITL (ardusub --model JSON): the real ArduSub flies in auvdock's ocean."""
-    from ..hardware.sitl_physics import SitlPhysics, parse_listen
+    from auvdock.standins.sitl_physics import SitlPhysics, parse_listen
 
     m = load_or_exit(mission)
     if duration is not None and not duration > 0:  # also NaN
@@ -157,8 +157,8 @@ def sitl_physics(
 
     stream: TruthCameraStream | None = None
     if target is not None:
-        from ..camera.truth_stream import TruthCameraStream
-        from ..camera.video import VideoSourceError, h264_encoder
+        from auvdock.camera.truth_stream import TruthCameraStream
+        from auvdock.camera.video import VideoSourceError, h264_encoder
 
         try:
             h264_encoder()

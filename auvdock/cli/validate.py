@@ -10,8 +10,8 @@ from rich.padding import Padding
 from rich.table import Table
 from rich.text import Text
 
-from ..mission import Mission
-from .app import app, console, load_or_exit
+from auvdock.cli.app import app, console, load_or_exit
+from auvdock.config.mission import Mission
 
 
 def _flatten(prefix: str, value: Any, rows: list[tuple[str, str]]) -> None:
@@ -68,7 +68,7 @@ def validate(mission: Path = typer.Argument(..., help="Mission YAML file.")) -> 
 @app.command()
 def missions() -> None:
     """List the missions and sweeps shipped with auvdock (usable by name from any folder)."""
-    from ..catalog import missions_dir, shipped_missions, shipped_sweeps
+    from auvdock.config.catalog import missions_dir, shipped_missions, shipped_sweeps
 
     for title, files in (("missions", shipped_missions()), ("sweeps", shipped_sweeps())):
         t = Table(title=f"shipped {title}", show_lines=False)

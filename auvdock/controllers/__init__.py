@@ -15,13 +15,13 @@ module                            what it holds
 ================================  ======================================================
 
 Every controller has ``step(meas, u_prev) -> ControlOutput`` and is driven by
-:class:`auvdock.autopilot.Autopilot`.
+:class:`auvdock.loop.autopilot.Autopilot`.
 """
 
 from __future__ import annotations
 
-from .base import Controller, ControlOutput, Measurement, Plan
-from .registry import (
+from auvdock.controllers.base import Controller, ControlOutput, Measurement, Plan
+from auvdock.controllers.registry import (
     CONTROLLERS,
     ControllerEntry,
     build_controller,
@@ -32,7 +32,7 @@ from .registry import (
     settings_union,
     split_controller,
 )
-from .solvers import SOLVERS, solver_names
+from auvdock.controllers.solvers import SOLVERS, solver_names
 
 __all__ = [
     "Measurement",

@@ -30,7 +30,7 @@ class Measurement:
         ``relative_velocity_m_s`` (3,), ``accel_m_s2`` (3,), ``depth_rate_m_s`` (scalar).
     readings : list
         The sensor suite's readings delivered since the last step
-        (:class:`auvdock.navigation.Reading`), for the navigation filter
+        (:class:`auvdock.estimation.navigation_filter.Reading`), for the navigation filter
         (``estimation: filter``); ``state`` is then not used by the controller.
     """
 
@@ -60,14 +60,14 @@ class ControlOutput:
     status : int
         Step outcome, a code of :mod:`auvdock.controllers.status`.
     solve_time_s : float
-        Wall time of the whole step, s (set by :class:`auvdock.autopilot.Autopilot`).
+        Wall time of the whole step, s (set by :class:`auvdock.loop.autopilot.Autopilot`).
     plan : Plan or None
         The plan the thrust comes from, for controllers that plan (None otherwise).
     series : dict
         Extra per-step values to record (name -> array), as the controller's
         ``extra_series`` declares them.
     time_parts : dict
-        Where the step's wall time went, s, by part (:mod:`auvdock.timing`; set by the
+        Where the step's wall time went, s, by part (:mod:`auvdock.runtime.timing`; set by the
         Autopilot): the rest of ``solve_time_s`` is Python.
     info : dict
         Anything else a controller wants to report about the step (not recorded).

@@ -15,11 +15,11 @@ from typing import Literal
 
 import numpy as np
 
-from ..dock import HeaveDock
-from ..vehicle import Vehicle
-from .base import ControlOutput, Measurement, Plan
-from .mpc import DockingMPC
-from .settings import MPCSettings
+from auvdock.controllers.base import ControlOutput, Measurement, Plan
+from auvdock.controllers.mpc import DockingMPC
+from auvdock.controllers.settings import MPCSettings
+from auvdock.vehicle import Vehicle
+from auvdock.world.dock import HeaveDock
 
 __all__ = [
     "NaiveSettings",

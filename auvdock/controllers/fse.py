@@ -1,6 +1,6 @@
 """Flow-state-estimating MPCs (paper sections V.A-B, Algorithm 1).
 
-Both controllers estimate the current with :class:`auvdock.estimator.FlowEstimator` from
+Both controllers estimate the current with :class:`auvdock.estimation.flow_filter.FlowEstimator` from
 inertial measurements (never the true flow) and predict with the full model (eqs. 1-2)
 driven by the ESTIMATED flow.
 
@@ -25,7 +25,7 @@ driven by the ESTIMATED flow.
   with ``ipopt`` its exact Hessian is used (inertia correction copes with the negative
   curvature).  Iterated SQP with qrqp does not converge here (README, Performance).
   In the optimiser ``F_k`` is the smooth lower bound
-  :func:`auvdock.estimator.information_lower_bound` ``1/tr(G_k^-1)``, within a factor 3 of
+  :func:`auvdock.estimation.flow_filter.information_lower_bound` ``1/tr(G_k^-1)``, within a factor 3 of
   ``lambda_min(G_k)`` and tight when the smallest eigenvalue is separated (the docstring
   says why not the guarded closed form).  The objective uses ``F_k - F_0`` (same
   minimiser, moderate values).  The recorded metric F is the exact ``lambda_min``.
@@ -50,20 +50,25 @@ import casadi as ca
 import numpy as np
 from pydantic import Field
 
-from .. import timing
-from ..codegen import compiled_function, compiled_nlpsol
-from ..dock import HeaveDock
-from ..estimator import EstimatorSettings, FlowEstimator, gramian_step, information_lower_bound
-from ..fastcall import BufferedFunction
-from ..interrupts import SigintDeferred
-from ..schema import Vec6Pos
-from ..sensors import SensorSettings
-from ..vehicle import Vehicle
-from ..vehicle.state import ANG, ATT, ETA
-from .base import ControlOutput, Measurement, Plan
-from .baseline import build_mpc
-from .rti import QRQP_OPTIONS
-from .settings import MPCSettings
+from auvdock.config.schema import Vec6Pos
+from auvdock.controllers.base import ControlOutput, Measurement, Plan
+from auvdock.controllers.baseline import build_mpc
+from auvdock.controllers.rti import QRQP_OPTIONS
+from auvdock.controllers.settings import MPCSettings
+from auvdock.estimation.flow_filter import (
+    EstimatorSettings,
+    FlowEstimator,
+    gramian_step,
+    information_lower_bound,
+)
+from auvdock.runtime import timing
+from auvdock.runtime.codegen import compiled_function, compiled_nlpsol
+from auvdock.runtime.fastcall import BufferedFunction
+from auvdock.runtime.interrupts import SigintDeferred
+from auvdock.sensing.sensors import SensorSettings
+from auvdock.vehicle import Vehicle
+from auvdock.vehicle.state import ANG, ATT, ETA
+from auvdock.world.dock import HeaveDock
 
 __all__ = ["FSEMPC", "PerceptionLaw", "SequentialSettings", "OptimizedSettings"]
 
@@ -118,7 +123,7 @@ def _six(G: np.ndarray) -> np.ndarray:
 class PerceptionLaw:
     """Active-perception law (9): the bounded wrench that maximises F one step ahead.
 
-    F is the smooth bound ``1/tr(G^-1)`` (see :func:`auvdock.estimator.information_lower_bound`).
+    F is the smooth bound ``1/tr(G^-1)`` (see :func:`auvdock.estimation.flow_filter.information_lower_bound`).
     Two ways to solve it (``method``):
 
     * ``"corners"`` (default): evaluate F at the 64 corners of the wrench box in one

@@ -17,7 +17,7 @@ for the Heavy) holds roll and pitch better than a loop of this bandwidth would (
 natural frequency (``fly.hold_bandwidth_rad_s``) and ``zeta = 1`` (critically damped): depth
 and heading are held where the hold began, roll and pitch at zero, the horizontal motion
 over ground damped.  The wrench goes to the thrusters through
-:func:`auvdock.hardware.ardusub.channels_for_wrench` like every other command.
+:func:`auvdock.vehicle.ardusub.channels_for_wrench` like every other command.
 """
 
 from __future__ import annotations
@@ -25,8 +25,8 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from ..geometry import rotation_zyx, wrap_angle
-from ..vehicle import Vehicle
+from auvdock.vehicle import Vehicle
+from auvdock.vehicle.geometry import rotation_zyx, wrap_angle
 
 __all__ = ["DepthAttitudeHold"]
 

@@ -60,15 +60,15 @@ from typing import Literal
 import casadi as ca
 import numpy as np
 
-from ..codegen import compiled_function
-from ..dock import HeaveDock
-from ..fastcall import BufferedFunction
-from ..interrupts import SigintDeferred
-from ..vehicle import Vehicle
-from ..vehicle.model import rk4
-from ..vehicle.state import ANG, ATT, ETA, LIN, NU, POS, YAW
-from .solvers import SOLVERS, Problem, SolveResult
-from .status import STATUS_FAILED, STATUS_FALLBACK_ZERO, STATUS_NOT_CONVERGED, STATUS_OK
+from auvdock.controllers.solvers import SOLVERS, Problem, SolveResult
+from auvdock.controllers.status import STATUS_FAILED, STATUS_FALLBACK_ZERO, STATUS_NOT_CONVERGED, STATUS_OK
+from auvdock.runtime.codegen import compiled_function
+from auvdock.runtime.fastcall import BufferedFunction
+from auvdock.runtime.interrupts import SigintDeferred
+from auvdock.vehicle import Vehicle
+from auvdock.vehicle.model import rk4
+from auvdock.vehicle.state import ANG, ATT, ETA, LIN, NU, POS, YAW
+from auvdock.world.dock import HeaveDock
 
 __all__ = ["DockingMPC", "MPCResult", "shift_solution"]
 

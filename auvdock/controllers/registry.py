@@ -28,15 +28,15 @@ from typing import Annotated, Any, Union
 
 from pydantic import Field
 
-from ..dock import HeaveDock
-from ..estimator import EstimatorSettings
-from ..sensors import SensorSettings
-from ..vehicle import Vehicle
-from .base import Controller
-from .baseline import BaselineMPC, KinematicSettings, NaiveSettings, OracleSettings
-from .fse import FSEMPC, OptimizedSettings, SequentialSettings
-from .settings import MPCSettings
-from .solvers import SOLVERS
+from auvdock.controllers.base import Controller
+from auvdock.controllers.baseline import BaselineMPC, KinematicSettings, NaiveSettings, OracleSettings
+from auvdock.controllers.fse import FSEMPC, OptimizedSettings, SequentialSettings
+from auvdock.controllers.settings import MPCSettings
+from auvdock.controllers.solvers import SOLVERS
+from auvdock.estimation.flow_filter import EstimatorSettings
+from auvdock.sensing.sensors import SensorSettings
+from auvdock.vehicle import Vehicle
+from auvdock.world.dock import HeaveDock
 
 __all__ = [
     "ControllerEntry",

@@ -32,8 +32,8 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from .. import timing
-from ..codegen import compiled_function
+from auvdock.runtime import timing
+from auvdock.runtime.codegen import compiled_function
 
 __all__ = [
     "RealTimeIteration",

@@ -12,7 +12,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field, field_validator
 
-from ..schema import NonNegFloat, PosFloat, Strict, Vec3Pos, Vec12NonNeg
+from auvdock.config.schema import NonNegFloat, PosFloat, Strict, Vec3Pos, Vec12NonNeg
 
 __all__ = ["WeightsSpec", "BoundsSpec", "SolverSpec", "MPCSettings", "DEFAULT_Q"]
 
@@ -91,7 +91,7 @@ class SolverSpec(Strict):
     @field_validator("name")
     @classmethod
     def _known(cls, v: str) -> str:
-        from .solvers import solver_names
+        from auvdock.controllers.solvers import solver_names
 
         if v not in solver_names():
             raise ValueError(f"unknown solver {v!r} (known: {', '.join(solver_names())})")

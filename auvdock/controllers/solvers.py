@@ -29,9 +29,9 @@ from typing import Protocol
 import casadi as ca
 import numpy as np
 
-from .. import timing
-from ..codegen import compiled_nlpsol
-from .rti import RealTimeIteration, qp_options
+from auvdock.controllers.rti import RealTimeIteration, qp_options
+from auvdock.runtime import timing
+from auvdock.runtime.codegen import compiled_nlpsol
 
 __all__ = ["Problem", "SolveResult", "NLPSolver", "SolverEntry", "SOLVERS", "IPOPT_OPTIONS", "solver_names"]
 

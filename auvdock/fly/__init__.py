@@ -8,8 +8,8 @@ One session (:class:`FlySession`, :mod:`auvdock.fly.session`)::
     -> end: neutral overrides, release, disarm if we armed, results closed
 
 Only where measurements come from and where commands go differ from ``auvdock sim``: the
-controller-and-estimator step is the same :class:`auvdock.autopilot.Autopilot`, built by
-:func:`auvdock.autopilot.build_autopilot`.
+controller-and-estimator step is the same :class:`auvdock.loop.autopilot.Autopilot`, built by
+:func:`auvdock.loop.autopilot.build_autopilot`.
 
 Modules: :mod:`~auvdock.fly.session` (the session, its safety checks and its ending),
 :mod:`~auvdock.fly.telemetry` (the mission frame, sensors from telemetry, the geofence),
@@ -25,13 +25,13 @@ The controllers that need the flow (Kinematic, Oracle) are given the mission's f
 (still water in the tank).  The flow-estimating controllers get the accelerometer
 (SCALED_IMU2), the depth rate and the relative velocity ``nu_1 - R^T v_c(model)``.
 
-Time.  A session waits and paces on its link's :class:`auvdock.clock.Clock`: the wall clock
-for a real vehicle, a :class:`auvdock.clock.SimClock` shared with
-:class:`auvdock.hardware.vehicle_sim.VehicleSim` to fly in simulated time (tests).
+Time.  A session waits and paces on its link's :class:`auvdock.runtime.clock.Clock`: the wall clock
+for a real vehicle, a :class:`auvdock.runtime.clock.SimClock` shared with
+:class:`auvdock.standins.vehicle_sim.VehicleSim` to fly in simulated time (tests).
 """
 
-from .camera import CAMERA_SERIES, CAMERA_STATES
-from .session import FlyAbortError, FlyResult, FlySession
-from .telemetry import TELEMETRY_MESSAGES
+from auvdock.fly.camera import CAMERA_SERIES, CAMERA_STATES
+from auvdock.fly.session import FlyAbortError, FlyResult, FlySession
+from auvdock.fly.telemetry import TELEMETRY_MESSAGES
 
 __all__ = ["FlySession", "FlyResult", "FlyAbortError", "TELEMETRY_MESSAGES", "CAMERA_STATES", "CAMERA_SERIES"]

@@ -15,10 +15,10 @@ from typing import Any
 
 import numpy as np
 
-from ..clock import Clock
-from ..dock import HeaveDock, TrackedDock
-from ..mission import Mission
-from ..vehicle.state import ETA
+from auvdock.config.mission import Mission
+from auvdock.runtime.clock import Clock
+from auvdock.vehicle.state import ETA
+from auvdock.world.dock import HeaveDock, TrackedDock
 
 __all__ = ["CAMERA_STATES", "CAMERA_SERIES", "CameraTracking", "CameraOpenError"]
 
@@ -64,8 +64,8 @@ class CameraTracking:
         clock: Clock,
         on_event: Callable[[str], None],
     ) -> None:
-        from ..camera.model import CameraMount
-        from ..camera.tracker import DockTracker, SyntheticCamera, TrackingMonitor
+        from auvdock.camera.model import CameraMount
+        from auvdock.camera.tracker import DockTracker, SyntheticCamera, TrackingMonitor
 
         self.dock = dock
         self.clock = clock
@@ -82,7 +82,7 @@ class CameraTracking:
                 mission, model_dock, self.latest_pose, clock=clock
             )
         else:
-            from ..camera.video import open_source
+            from auvdock.camera.video import open_source
 
             try:
                 self.source = open_source(c.source, clock=clock)

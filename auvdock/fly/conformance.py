@@ -1,7 +1,7 @@
 """Does the autopilot do what ``fly``'s commands assume?  ArduSub's parameters checked before arming.
 
 ``fly`` drives the thrusters through MANUAL-mode RC overrides, mapped with ArduSub's
-VECTORED_6DOF mixer inverted (:mod:`auvdock.hardware.ardusub`).  That is right only if the
+VECTORED_6DOF mixer inverted (:mod:`auvdock.vehicle.ardusub`).  That is right only if the
 vehicle is set up the way the map assumes, and safe only if the autopilot stops the
 thrusters when ``fly`` goes silent.  :func:`check_parameters` reads the answer from the
 vehicle's parameters (PARAM_VALUE) and returns one line per problem, each naming the

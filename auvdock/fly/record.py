@@ -1,6 +1,6 @@
 """The results file of a fly session: the ``auvdock sim`` layout plus the telemetry series.
 
-:class:`FlyRecorder` creates the run (:class:`auvdock.results.RunWriter`), writes one row per
+:class:`FlyRecorder` creates the run (:class:`auvdock.results.store.RunWriter`), writes one row per
 control step -- flown (the controller's thrust) or held (neutral thrust, no dock to steer
 to) -- each whole even under Ctrl-C, keeps what the outcome needs, and writes the outcome.
 """
@@ -14,12 +14,12 @@ from typing import Any
 
 import numpy as np
 
-from ..controllers.status import STATUS_HOLD, STATUS_NAMES, STATUS_NO_STEP
-from ..geometry import rotation_zyx
-from ..interrupts import SigintDeferred
-from ..results import FLUSH_PERIOD_S, RunWriter, flush_steps
-from ..simulation import run_outcome
-from ..vehicle.state import POS
+from auvdock.controllers.status import STATUS_HOLD, STATUS_NAMES, STATUS_NO_STEP
+from auvdock.loop.simulation import run_outcome
+from auvdock.results.store import FLUSH_PERIOD_S, RunWriter, flush_steps
+from auvdock.runtime.interrupts import SigintDeferred
+from auvdock.vehicle.geometry import rotation_zyx
+from auvdock.vehicle.state import POS
 
 __all__ = ["FlyRecorder", "TELEMETRY_SERIES"]
 

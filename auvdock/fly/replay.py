@@ -1,7 +1,7 @@
 """``auvdock replay``: rerun a recorded flight's estimator and controller at a desk.
 
 A ``fly`` session takes the vehicle's messages from its link once per step
-(:meth:`auvdock.hardware.link.MavlinkLink.drain`) and marks each such moment in its tlog with
+(:meth:`auvdock.fly.link.MavlinkLink.drain`) and marks each such moment in its tlog with
 a NAMED_VALUE_INT ``auvd_*`` record from its own system id (written to the tlog, never
 sent).  :class:`ReplayLink` reads the tlog back and plays the vehicle's part: each drain of
 the replayed session returns exactly the messages the flight's drain returned, with the
@@ -29,9 +29,9 @@ from typing import Any
 import numpy as np
 from pymavlink import mavutil
 
-from ..hardware.link import for_session
-from ..mission import Mission
-from .session import FlyAbortError, FlyResult, FlySession
+from auvdock.config.mission import Mission
+from auvdock.fly.link import for_session
+from auvdock.fly.session import FlyAbortError, FlyResult, FlySession
 
 __all__ = ["ReplayError", "ReplayLink", "ReplayClock", "FlightTag", "read_tag", "replay"]
 
@@ -104,7 +104,7 @@ def read_tag(messages: list[tuple[int, Any]]) -> FlightTag | None:
 
 
 class ReplayLink:
-    """A :class:`~auvdock.hardware.link.MavlinkLink` look-alike that plays a recorded flight.
+    """A :class:`~auvdock.fly.link.MavlinkLink` look-alike that plays a recorded flight.
 
     Parameters
     ----------

@@ -9,7 +9,7 @@ still water) predicts for the same state, split into the part the thrust causes 
 
 with ``u`` the thrust ArduSub produces from the channels sent at the step before (what the
 accelerometer read at a step has felt: the channels of the step itself are sent after it)
-(:func:`auvdock.hardware.ardusub.thrust_from_channels`) and ``f_model = nu_1_dot + nu_2 x
+(:func:`auvdock.vehicle.ardusub.thrust_from_channels`) and ``f_model = nu_1_dot + nu_2 x
 nu_1 - R^T g`` the specific force the model's accelerations give (paper eqs. 1-2).  ``gain`` is
 the least-squares slope over the armed steps (1: the vehicle pushes as modelled; 2: twice as
 hard), with the share of the measured variation it explains (R^2).  A flight on a plant the
@@ -27,11 +27,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..geometry import rotation_zyx
-from ..hardware.ardusub import thrust_from_channels
-from ..measurements import GRAVITY
-from ..mission import Mission, parse_mission
-from ..results import read_run
+from auvdock.config.mission import Mission, parse_mission
+from auvdock.results.store import read_run
+from auvdock.sensing.measurements import GRAVITY
+from auvdock.vehicle.ardusub import thrust_from_channels
+from auvdock.vehicle.geometry import rotation_zyx
 
 __all__ = ["AxisResponse", "thrust_response", "main"]
 
@@ -103,7 +103,7 @@ def main(argv: list[str] | None = None) -> None:
     args = ap.parse_args(argv)
     mission = None
     if args.mission is not None:
-        from ..mission import load_mission
+        from auvdock.config.mission import load_mission
 
         mission = load_mission(args.mission)
     print(f"{args.results.name}: measured / modelled thrust-driven specific force, armed steps")

@@ -46,7 +46,7 @@ showing channels fly did not send) ends the session as a takeover (exit code 4):
 channels are released at once and the vehicle is left to them.  While the camera has lost
 the dock the vehicle holds depth and attitude (:class:`auvdock.controllers.hold.DepthAttitudeHold`).
 What CasADi's C code prints during the controller steps is counted and recorded
-(:class:`auvdock.stderr_capture.StderrCapture`), not shown per step.
+(:class:`auvdock.runtime.stderr_capture.StderrCapture`), not shown per step.
 
 Ctrl-C (SIGINT) at any moment ends the session with reason "interrupted" (exit code 130):
 results rows and the results file's creation are written whole (SIGINT held back over them),
@@ -68,30 +68,35 @@ from typing import Any
 import numpy as np
 from pymavlink import mavutil
 
-from ..autopilot import build_autopilot
-from ..clock import Clock
-from ..controllers import Measurement
-from ..controllers.hold import DepthAttitudeHold
-from ..controllers.registry import CONTROLLERS, split_controller
-from ..controllers.status import FAILURE_CODES, STATUS_NAMES, STATUS_NO_STEP
-from ..dock import HeaveDock, TrackedDock
-from ..geometry import rotation_zyx
-from ..hardware.ardusub import (
+from auvdock.config.mission import Mission, MissionError
+from auvdock.controllers import Measurement
+from auvdock.controllers.hold import DepthAttitudeHold
+from auvdock.controllers.registry import CONTROLLERS, split_controller
+from auvdock.controllers.status import FAILURE_CODES, STATUS_NAMES, STATUS_NO_STEP
+from auvdock.fly.camera import CAMERA_SERIES, CameraOpenError, CameraTracking
+from auvdock.fly.conformance import PARAMETER_GROUPS, check_parameters, describe, parameter_names
+from auvdock.fly.link import PILOT_INPUT_TYPES, LinkError, MavlinkLink
+from auvdock.fly.record import FlyRecorder
+from auvdock.fly.telemetry import (
+    PRESSURE_PARAMETERS,
+    TELEMETRY_MESSAGES,
+    TelemetrySensors,
+    geofence_violation,
+)
+from auvdock.loop.autopilot import build_autopilot
+from auvdock.runtime.clock import Clock
+from auvdock.runtime.interrupts import SigintDeferred
+from auvdock.runtime.stderr_capture import StderrCapture
+from auvdock.vehicle.ardusub import (
     MODES,
     NEUTRAL_CHANNELS,
     channels_for_thrust,
     channels_for_wrench,
     thrust_from_channels,
 )
-from ..hardware.link import PILOT_INPUT_TYPES, LinkError, MavlinkLink
-from ..interrupts import SigintDeferred
-from ..mission import Mission, MissionError
-from ..stderr_capture import StderrCapture
-from ..vehicle.state import ATT, POS
-from .camera import CAMERA_SERIES, CameraOpenError, CameraTracking
-from .conformance import PARAMETER_GROUPS, check_parameters, describe, parameter_names
-from .record import FlyRecorder
-from .telemetry import PRESSURE_PARAMETERS, TELEMETRY_MESSAGES, TelemetrySensors, geofence_violation
+from auvdock.vehicle.geometry import rotation_zyx
+from auvdock.vehicle.state import ATT, POS
+from auvdock.world.dock import HeaveDock, TrackedDock
 
 __all__ = ["FlySession", "FlyResult", "FlyAbortError", "FlyTakeoverError", "EXIT_CODES"]
 

@@ -8,10 +8,10 @@ pose (a translation and a rotation about down), and every later reading through 
 map.
 
 :class:`TelemetrySensors` is the third source of the one sensor interface (beside the
-simulated suite, :class:`auvdock.sensors.SensorSuite`): fed the vehicle's messages as they
-were received, it gives, per control step, the :class:`auvdock.navigation.Reading` s of the
+simulated suite, :class:`auvdock.sensing.sensors.SensorSuite`): fed the vehicle's messages as they
+were received, it gives, per control step, the :class:`auvdock.estimation.navigation_filter.Reading` s of the
 messages that are new since the last step, one definition per measurement kind
-(:mod:`auvdock.measurements`):
+(:mod:`auvdock.sensing.measurements`):
 
 =============================  ==========  =================================================
 message                        kind        value
@@ -29,7 +29,7 @@ LOCAL_POSITION_NED             dvl         vx, vy, vz rotated into {b} (``sensor
 
 The body-frame quantities (IMU) do not change with the frame (a rotation about down).  Each
 reading's standard deviation is the mission's figure for its sensor (``sensors.*``), the IMU's
-with the rounding to whole mG / mrad/s added (:mod:`auvdock.hardware.units`).  A reading is
+with the rounding to whole mG / mrad/s added (:mod:`auvdock.fly.units`).  A reading is
 stamped with the control step's time: ArduSub's attitude, pressure and EKF position are
 current when sent.  The same object serves ``fly`` (fed from the link at each step) and
 ``replay`` (fed from the tlog up to each step's marker), so both see the same readings.
@@ -43,8 +43,8 @@ from typing import Any
 
 import numpy as np
 
-from ..geometry import Rz, rotation_zyx, wrap_angle
-from ..hardware.units import (
+from auvdock.estimation.navigation_filter import Reading
+from auvdock.fly.units import (
     ACCEL_LSB_STD_M_S2,
     ATMOSPHERE_HPA,
     GYRO_LSB_STD_RAD_S,
@@ -53,8 +53,8 @@ from ..hardware.units import (
     WATER_DENSITY,
     depth_from_pressure,
 )
-from ..navigation import Reading
-from ..sensors import SensorSettings
+from auvdock.sensing.sensors import SensorSettings
+from auvdock.vehicle.geometry import Rz, rotation_zyx, wrap_angle
 
 __all__ = [
     "TELEMETRY_MESSAGES",

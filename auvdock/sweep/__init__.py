@@ -36,7 +36,7 @@ module         job
 The runs execute on the one campaign engine (:mod:`auvdock.campaign`): local worker
 processes, or a Dask cluster with ``scheduler=``; the same results layout, resume, retry
 and Ctrl-C handling as ``auvdock compare``.  Statistics and figures:
-:mod:`auvdock.sweep_stats`.
+:mod:`auvdock.sweep.stats`.
 
 Points and runs
 ---------------
@@ -69,7 +69,7 @@ Derived and coupled fields
   one value: varying one clears the other (HeaveSpec accepts both only when they agree).
 * ``seed`` and ``controller.type`` are set by ``seeds`` and ``controllers`` and cannot be
   varied; list values are varied whole (``dock.position_ned_m: [[2, 3, 5], [3, 3, 5]]``).
-  Controller settings are checked per controller type (:func:`auvdock.schema.field_at`).
+  Controller settings are checked per controller type (:func:`auvdock.config.schema.field_at`).
 
 Model error
 -----------
@@ -99,10 +99,10 @@ run is also kept as a run group ``/runs/<run id>`` (the layout of ``auvdock sim`
 
 from __future__ import annotations
 
-from .expand import expand_sweep, label_columns, sweep_plan
-from .load import load_sweep
-from .run import RESULTS_NAME, read_sweep, run_sweep
-from .schema import DERIVED_FIELDS, Sweep, SweepError
+from auvdock.sweep.expand import expand_sweep, label_columns, sweep_plan
+from auvdock.sweep.load import load_sweep
+from auvdock.sweep.run import RESULTS_NAME, read_sweep, run_sweep
+from auvdock.sweep.schema import DERIVED_FIELDS, Sweep, SweepError
 
 __all__ = [
     "DERIVED_FIELDS",

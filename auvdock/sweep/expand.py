@@ -20,10 +20,10 @@ from typing import Any
 import numpy as np
 from pydantic import ValidationError
 
-from ..campaign.spec import Plan, RunSpec, mission_data
-from ..mission import Mission
-from ..schema import first_error
-from .schema import DERIVED_FIELDS, Sweep, SweepError
+from auvdock.campaign.spec import Plan, RunSpec, mission_data
+from auvdock.config.mission import Mission
+from auvdock.config.schema import first_error
+from auvdock.sweep.schema import DERIVED_FIELDS, Sweep, SweepError
 
 __all__ = ["expand_sweep", "label_columns", "sweep_plan"]
 
@@ -62,7 +62,7 @@ def _flow_updates(sweep: Sweep, base: Mission, values: dict[str, Any], point: in
             v = values[k]
             if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
                 raise SweepError(p, _section(sweep, k), f"must be a finite number (got {v!r})")
-        from ..flow import ConstantCurrent
+        from auvdock.world.flow import ConstantCurrent
 
         speed0 = dir0 = None  # the base's current, if it has one
         if isinstance(base_flow, ConstantCurrent) and math.hypot(base_flow.north_m_s, base_flow.east_m_s) > 0:
@@ -104,7 +104,7 @@ def _flow_updates(sweep: Sweep, base: Mission, values: dict[str, Any], point: in
         upd["flow.case"] = None
         upd["flow.type"] = "constant"
     if any(k in values for k in _GYRE_FIELDS) and base.flow.case is not None:
-        from ..flow import DoubleGyre
+        from auvdock.world.flow import DoubleGyre
 
         if not isinstance(base_flow, DoubleGyre):
             k = next(k for k in _GYRE_FIELDS if k in values)
@@ -157,7 +157,7 @@ def _point_mission(
             note += f"controller {controller}: "
         raise SweepError(p, where, note + problem) from None
     if any(k.startswith("vehicle.") for k in values):
-        from ..vehicle.params import VehicleParamsError
+        from auvdock.vehicle.params import VehicleParamsError
 
         try:
             m.build_vehicle()

@@ -6,11 +6,11 @@ from pathlib import Path
 
 from pydantic import ValidationError
 
-from ..catalog import resolve
-from ..mission import MissionError, load_mission, read_yaml_file
-from ..schema import first_error
-from .expand import expand_sweep
-from .schema import Sweep, SweepError, check_fields
+from auvdock.config.catalog import resolve
+from auvdock.config.mission import MissionError, load_mission, read_yaml_file
+from auvdock.config.schema import first_error
+from auvdock.sweep.expand import expand_sweep
+from auvdock.sweep.schema import Sweep, SweepError, check_fields
 
 __all__ = ["load_sweep"]
 

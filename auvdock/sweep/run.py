@@ -5,12 +5,12 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from ..campaign.engine import CampaignResult, EventFn, run_plan
-from ..campaign.executor import Runner
-from ..campaign.store import read_results
-from ..campaign.worker import execute_run
-from .expand import sweep_plan
-from .load import load_sweep
+from auvdock.campaign.engine import CampaignResult, EventFn, run_plan
+from auvdock.campaign.executor import Runner
+from auvdock.campaign.store import read_results
+from auvdock.campaign.worker import execute_run
+from auvdock.sweep.expand import sweep_plan
+from auvdock.sweep.load import load_sweep
 
 __all__ = ["RESULTS_NAME", "run_sweep", "read_sweep"]
 

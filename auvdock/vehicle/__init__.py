@@ -21,10 +21,10 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from .model import VehicleModel, rk4
-from .params import VehicleParams, VehicleParamsError, load_params, preset_names
-from .state import ETA, LIN, NX, POS
-from .thrusters import ThrusterCurve
+from auvdock.vehicle.model import VehicleModel, rk4
+from auvdock.vehicle.params import VehicleParams, VehicleParamsError, load_params, preset_names
+from auvdock.vehicle.state import ETA, LIN, NX, POS
+from auvdock.vehicle.thrusters import ThrusterCurve
 
 __all__ = ["Vehicle", "VehicleModel", "VehicleParams", "VehicleParamsError", "load_vehicle", "preset_names"]
 
@@ -92,7 +92,7 @@ class Vehicle:
         """Truth integrator ``(x[12], u[n], t) -> x(t + dt)`` through a flow field.
 
         RK4 with ``substeps`` steps; thrust held constant (zero-order hold).  ``flow`` is a
-        :class:`auvdock.flow.FlowField` (None: still water); the field is evaluated at the
+        :class:`auvdock.world.flow.FlowField` (None: still water); the field is evaluated at the
         vehicle's position and time inside every RK4 stage, and its rate of change along
         the path, ``dv_c/dt = dv/dt + (dv/dp) R nu_1``, enters the added-mass term.
         """

@@ -36,10 +36,10 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from ..geometry import skew
-from .params import VehicleParams
-from .state import ANG, ETA, NU, NX
-from .thrusters import allocation_matrix
+from auvdock.vehicle.geometry import skew
+from auvdock.vehicle.params import VehicleParams
+from auvdock.vehicle.state import ANG, ETA, NU, NX
+from auvdock.vehicle.thrusters import allocation_matrix
 
 __all__ = [
     "Smtrx",

@@ -16,8 +16,8 @@ from typing import Any
 import numpy as np
 import yaml
 
-from ..yamlio import load_yaml_strict
-from .thrusters import ThrusterCurve
+from auvdock.config.yamlio import load_yaml_strict
+from auvdock.vehicle.thrusters import ThrusterCurve
 
 __all__ = ["VehicleParams", "VehicleParamsError", "preset_names", "load_params", "deep_merge"]
 

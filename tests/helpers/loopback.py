@@ -1,4 +1,4 @@
-"""``fly`` against ``vehicle-sim`` on 127.0.0.1, in simulated time (:class:`auvdock.clock.SimClock`).
+"""``fly`` against ``vehicle-sim`` on 127.0.0.1, in simulated time (:class:`auvdock.runtime.clock.SimClock`).
 
 One :class:`Loopback` per test: a SimClock whose first participant is the test's thread,
 vehicle simulators started on it (their threads are participants too), and the ``fly``
@@ -23,9 +23,9 @@ from typer.testing import CliRunner
 
 import auvdock.cli.fly as cli_fly
 from auvdock.cli import app
-from auvdock.clock import SimClock
-from auvdock.hardware.vehicle_sim import VehicleSim
-from auvdock.mission import load_mission
+from auvdock.config.mission import load_mission
+from auvdock.runtime.clock import SimClock
+from auvdock.standins.vehicle_sim import VehicleSim
 
 ROOT = Path(__file__).resolve().parents[2]
 TANK = ROOT / "missions" / "tank_0p6hz.yaml"

@@ -3,7 +3,7 @@
 Figures are drawn on :class:`matplotlib.figure.Figure` objects with an explicit Agg
 canvas: no pyplot, no global backend switch, no GUI, safe to call from worker threads.
 
-Frames and units follow :mod:`auvdock.results`: positions NED in metres, velocities in
+Frames and units follow :mod:`auvdock.results.store`: positions NED in metres, velocities in
 m/s, forces in N, time in s.  Plots of positions put east on the horizontal axis and
 north on the vertical one (a map), and the 3-D view draws "down" downwards.
 """
@@ -21,7 +21,7 @@ from matplotlib.figure import Figure
 from matplotlib.quiver import Quiver
 from matplotlib.ticker import MaxNLocator
 
-from auvdock.results import RunResults
+from auvdock.results.store import RunResults
 from auvdock.vehicle.state import POS
 
 __all__ = ["plot_run", "run_figures", "thrust_limits_of", "FlowFieldLike"]
@@ -47,7 +47,7 @@ _THRUST_STYLES: tuple[Any, ...] = ("-", "--", "-.", ":", (0, (5, 1)), (0, (3, 1,
 
 
 class FlowFieldLike(Protocol):
-    """Anything with the :meth:`auvdock.flow.FlowField.velocity` signature."""
+    """Anything with the :meth:`auvdock.world.flow.FlowField.velocity` signature."""
 
     def velocity(self, p_ned: np.ndarray, t: float) -> np.ndarray:
         """Water velocity (north, east, down) in m/s, shape (..., 3), at NED positions (..., 3) m."""
@@ -92,13 +92,13 @@ def plot_run(
     Parameters
     ----------
     results : RunResults
-        The run, from :func:`auvdock.results.read_run`.
+        The run, from :func:`auvdock.results.store.read_run`.
     out_dir : str or Path
         Directory for the PNG files (created if missing).
     prefix : str
         Prefix of every file name, e.g. ``"case1_oracle_"``.
     flow_field : FlowFieldLike, optional
-        The true flow field (e.g. :func:`auvdock.flow.flow_case` ``("case2")``) for the
+        The true flow field (e.g. :func:`auvdock.world.flow.flow_case` ``("case2")``) for the
         top view's arrow grid.
     dpi : int
         Resolution of the PNG files.
@@ -170,7 +170,7 @@ def thrust_limits_of(results: RunResults) -> tuple[np.ndarray, np.ndarray] | Non
         try:
             import yaml
 
-            from auvdock.mission import parse_mission
+            from auvdock.config.mission import parse_mission
             from auvdock.vehicle.params import load_params
 
             spec = parse_mission(yaml.safe_load(results.mission_yaml), "mission_yaml").vehicle

@@ -29,7 +29,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..vehicle.thrusters import PWM_MAX_US, PWM_MIN_US, PWM_NEUTRAL_US, T200, ThrusterCurve, t200_pwm_to_force
+from auvdock.vehicle.thrusters import (
+    PWM_MAX_US,
+    PWM_MIN_US,
+    PWM_NEUTRAL_US,
+    T200,
+    ThrusterCurve,
+    t200_pwm_to_force,
+)
 
 __all__ = [
     "CHANNELS",

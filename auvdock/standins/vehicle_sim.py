@@ -3,12 +3,12 @@
 :class:`VehicleSim` answers a topside program (a GCS, QGroundControl, ``auvdock fly``) the
 way ArduSub does on a BlueROV2 Heavy, while the motion comes from this package's one 6-DOF
 truth model (:meth:`auvdock.vehicle.Vehicle.stepper`, the integrator of
-:func:`auvdock.simulation.simulate`) driven through ArduSub's MANUAL thrust path
-(:func:`auvdock.hardware.ardusub.thrust_from_channels`).  Use it to test topside code on
+:func:`auvdock.loop.simulation.simulate`) driven through ArduSub's MANUAL thrust path
+(:func:`auvdock.vehicle.ardusub.thrust_from_channels`).  Use it to test topside code on
 loopback and to rehearse without a vehicle::
 
-    from auvdock.mission import load_mission
-    from auvdock.hardware.vehicle_sim import VehicleSim
+    from auvdock.config.mission import load_mission
+    from auvdock.standins.vehicle_sim import VehicleSim
 
     with VehicleSim(load_mission("missions/tank_0p6hz.yaml"), port="udpout:127.0.0.1:14550") as sim:
         ...  # a GCS listening on udpin:127.0.0.1:14550 sees a BlueROV2
@@ -31,10 +31,10 @@ Clock
 Every time in the simulator is **simulated time** ``t`` (s, 0 at :meth:`VehicleSim.start`):
 the physics, the heartbeat, the stream intervals, the 3 s override lapse and the 3 s pilot
 input failsafe, like ArduSub SITL with ``SIM_SPEEDUP``.  ``t`` advances by ``1 / rate_hz``
-per physics step, paced to the simulator's :class:`auvdock.clock.Clock` times ``speed``.
+per physics step, paced to the simulator's :class:`auvdock.runtime.clock.Clock` times ``speed``.
 With the wall clock (the default, ``auvdock vehicle-sim``), when the computer cannot keep
 up, ``t`` slips (it never runs steps in a burst to catch up more than 0.25 s).  With a
-:class:`auvdock.clock.SimClock` shared with a ``fly`` session (tests), the two run in
+:class:`auvdock.runtime.clock.SimClock` shared with a ``fly`` session (tests), the two run in
 lockstep and never slip.  ``time_boot_ms`` / ``time_usec`` fields are ``t`` in ms / us.
 
 Messages sent
@@ -42,7 +42,7 @@ Messages sent
 * ``HEARTBEAT`` at 1 Hz, from the start: type ``MAV_TYPE_SUBMARINE``, autopilot
   ``MAV_AUTOPILOT_ARDUPILOTMEGA``, base_mode = ``MAV_MODE_FLAG_CUSTOM_MODE_ENABLED |
   MAV_MODE_FLAG_MANUAL_INPUT_ENABLED`` (| ``MAV_MODE_FLAG_SAFETY_ARMED`` when armed),
-  custom_mode = the mode number (:data:`auvdock.hardware.ardusub.MODES`; boots in MANUAL, 19),
+  custom_mode = the mode number (:data:`auvdock.vehicle.ardusub.MODES`; boots in MANUAL, 19),
   system_status ``MAV_STATE_STANDBY`` disarmed / ``MAV_STATE_ACTIVE`` armed.
 * Nothing else is streamed until a GCS asks with ``MAV_CMD_SET_MESSAGE_INTERVAL``
   (real ArduSub streams by its ``SRn_*`` parameters; here every stream starts off).
@@ -113,7 +113,7 @@ Messages handled
   are ignored and counted (:attr:`VehicleSim.ignored_control`).
 
   - ``RC_CHANNELS_OVERRIDE``: chan1..chan6 (pitch, roll, throttle, yaw, forward, lateral,
-    :data:`auvdock.hardware.ardusub.CHANNELS`); 0 and 65535 (release / ignore) count as
+    :data:`auvdock.vehicle.ardusub.CHANNELS`); 0 and 65535 (release / ignore) count as
     neutral 1500 (simplification: ArduPilot keeps the previous value for 65535 and releases
     to the RC radio, i.e. trim, for 0); other values are clamped to 1100..1900 us.
     Channels 7+ are ignored.
@@ -142,8 +142,8 @@ Vehicle behaviour
   counted from the later of the last pilot input and the arming (real ArduSub latches the
   failsafe once per loss and so may not disarm a vehicle armed during a loss; SITL builds of
   ArduSub skip this failsafe altogether).
-* Physics: :class:`auvdock.hardware.plant.TruthPlant` (the truth plant this simulator shares
-  with :class:`auvdock.hardware.sitl_physics.SitlPhysics`): ``Vehicle.stepper(1 / rate_hz,
+* Physics: :class:`auvdock.world.plant.TruthPlant` (the truth plant this simulator shares
+  with :class:`auvdock.standins.sitl_physics.SitlPhysics`): ``Vehicle.stepper(1 / rate_hz,
   substeps, flow)`` (RK4, thrust held over the step) from the mission's start state, vehicle
   and flow field.  ``surface=True`` (default) adds a
   crude free surface the truth model lacks: the depth z is floored at 0 m, and the upward
@@ -177,15 +177,22 @@ import numpy as np
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
-from ..clock import Clock, wall_clock
-from ..geometry import wrap_angle
-from ..interrupts import SigintDeferred
-from ..mission import Mission, load_mission
-from ..vehicle.state import ANG, ATT, LIN, POS
-from ..vehicle.thrusters import PWM_MAX_US, PWM_MIN_US, PWM_NEUTRAL_US
-from .ardusub import MODES, NEUTRAL_CHANNELS, PWM_PER_UNIT, mix, motor_pwm, thrust_from_channels
-from .plant import TruthPlant
-from .units import ATMOSPHERE_HPA, MG_M_S2, MRAD_S, WATER_DENSITY, pressure_hpa
+from auvdock.config.mission import Mission, load_mission
+from auvdock.fly.units import ATMOSPHERE_HPA, MG_M_S2, MRAD_S, WATER_DENSITY, pressure_hpa
+from auvdock.runtime.clock import Clock, wall_clock
+from auvdock.runtime.interrupts import SigintDeferred
+from auvdock.vehicle.ardusub import (
+    MODES,
+    NEUTRAL_CHANNELS,
+    PWM_PER_UNIT,
+    mix,
+    motor_pwm,
+    thrust_from_channels,
+)
+from auvdock.vehicle.geometry import wrap_angle
+from auvdock.vehicle.state import ANG, ATT, LIN, POS
+from auvdock.vehicle.thrusters import PWM_MAX_US, PWM_MIN_US, PWM_NEUTRAL_US
+from auvdock.world.plant import TruthPlant
 
 __all__ = [
     "VehicleSim",
@@ -362,7 +369,7 @@ class VehicleSim:
         Most entries kept in :attr:`received` (oldest dropped first).
     clock : Clock, optional
         What the simulator paces itself on (default the wall clock; a
-        :class:`auvdock.clock.SimClock` to run in lockstep with a fly session).
+        :class:`auvdock.runtime.clock.SimClock` to run in lockstep with a fly session).
     """
 
     def __init__(
@@ -473,7 +480,7 @@ class VehicleSim:
 
     @property
     def mode(self) -> int:
-        """Current mode number (ArduSub custom_mode, :data:`~auvdock.hardware.ardusub.MODES`)."""
+        """Current mode number (ArduSub custom_mode, :data:`~auvdock.vehicle.ardusub.MODES`)."""
         with self._lock:
             return self._mode
 
@@ -996,7 +1003,7 @@ class VehicleSim:
         """Act as a positioning system on the vehicle: send LANDING_TARGET for ``dock``.
 
         ``dock`` is anything with ``position(t)`` (NED m at simulated time t, e.g. a
-        :class:`auvdock.dock.HeaveDock`), or None to stop.  Sent at ``rate_hz`` in
+        :class:`auvdock.world.dock.HeaveDock`), or None to stop.  Sent at ``rate_hz`` in
         MAV_FRAME_BODY_FRD (the dock's position relative to the vehicle in body axes, m)
         with ``position_valid = 1``, from this vehicle's system id.
         """

@@ -9,8 +9,9 @@ Two ways of knowing the vehicle's state, chosen by the mission's ``estimation``:
 * ``filter`` (what a BlueROV2 really knows): the sensor suite of :class:`SensorSettings`
   (``imu``, ``ahrs``, ``depth``, ``position``, ``dvl``; defaults from the manufacturers'
   figures, each with its source) is simulated by :class:`SensorSuite` as asynchronous
-  :class:`auvdock.navigation.Reading` s, one definition per measurement
-  (:mod:`auvdock.measurements`), and the navigation filter (:mod:`auvdock.navigation`)
+  :class:`auvdock.estimation.navigation_filter.Reading` s, one definition per measurement
+  (:mod:`auvdock.sensing.measurements`), and the navigation filter
+  (:mod:`auvdock.estimation.navigation_filter`)
   estimates the state and the current from them.
 
 Seeded: the same seed gives the same readings.
@@ -24,8 +25,8 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 
-from .schema import NonNegFloat, PosFloat, Strict
-from .vehicle.state import ANG, ATT, ETA, LIN
+from auvdock.config.schema import NonNegFloat, PosFloat, Strict
+from auvdock.vehicle.state import ANG, ATT, ETA, LIN
 
 __all__ = [
     "SensorSettings",
@@ -250,7 +251,7 @@ class _Channel:
 class SensorSuite:
     """The BlueROV2's sensor suite, simulated from the truth: a list of readings per control step.
 
-    Every reading is the one definition of its measurement (:func:`auvdock.measurements.measure`)
+    Every reading is the one definition of its measurement (:func:`auvdock.sensing.measurements.measure`)
     at the true state, plus a bias constant over the run and white noise, both seeded.  A
     sensor is sampled at the control instants where it is due (so a sensor faster than the
     control rate gives one reading per step) and delivered once its latency has passed, with
@@ -306,8 +307,8 @@ class SensorSuite:
     def read(self, t: float, x: np.ndarray, u_prev: np.ndarray, flow_ned: np.ndarray) -> list[Any]:
         """The readings delivered at control instant ``t`` (s): state ``x`` (12,), thrust held
         over the last period ``u_prev`` (n,), true flow at the vehicle ``flow_ned`` (3,)."""
-        from .measurements import measure
-        from .navigation import Reading
+        from auvdock.estimation.navigation_filter import Reading
+        from auvdock.sensing.measurements import measure
 
         out = []
         for c in self.channels:

@@ -34,8 +34,8 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from .vehicle.model import Smtrx
-from .vehicle.state import ANG, ATT, LIN, NX, POS
+from auvdock.vehicle.model import Smtrx
+from auvdock.vehicle.state import ANG, ATT, LIN, NX, POS
 
 __all__ = ["KINDS", "GRAVITY", "ANGLE_ROWS", "expression", "h", "measure"]
 

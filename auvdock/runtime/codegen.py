@@ -51,7 +51,7 @@ from typing import Any
 
 import casadi as ca
 
-from .interrupts import sigint_pending, sigint_raises
+from auvdock.runtime.interrupts import sigint_pending, sigint_raises
 
 __all__ = [
     "cache_dir",

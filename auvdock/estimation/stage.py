@@ -2,7 +2,7 @@
 
 ``estimation: truth`` (the paper's Assumption 1): the controllers get the state the
 measurement carries.  ``estimation: filter``: :class:`NavigationStage` runs the navigation
-filter (:mod:`auvdock.navigation`) on the sensor suite's readings and the thrust commanded
+filter (:mod:`auvdock.estimation.navigation_filter`) on the sensor suite's readings and the thrust commanded
 over the last period, and hands every controller the same estimate:
 
 * ``state``: the filter's state (12), over-ground body velocity;
@@ -32,10 +32,10 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from .controllers.base import Measurement
-from .navigation import NavEstimate, NavigationFilter, NavigationSettings
-from .vehicle.model import rk4
-from .vehicle.state import ANG, ATT, ETA, LIN, NX
+from auvdock.controllers.base import Measurement
+from auvdock.estimation.navigation_filter import NavEstimate, NavigationFilter, NavigationSettings
+from auvdock.vehicle.model import rk4
+from auvdock.vehicle.state import ANG, ATT, ETA, LIN, NX
 
 __all__ = ["ESTIMATION_MODES", "ESTIMATION_SERIES", "NavigationStage"]
 

@@ -1,6 +1,6 @@
 """What every validated input file shares: a strict pydantic base and one-line errors.
 
-Missions (:mod:`auvdock.mission`) and sweeps (:mod:`auvdock.sweep`) are pydantic models built
+Missions (:mod:`auvdock.config.mission`) and sweeps (:mod:`auvdock.sweep`) are pydantic models built
 on :class:`Strict` (unknown keys, NaN and inf refused; defaults validated).  A validation
 error becomes the one line users see with :func:`first_error`: the dotted field path as the
 file spells it (``controller.alpha``, ``grid.flow.speed_m_s``) and the problem, e.g.

@@ -2,9 +2,9 @@
 
 :class:`TruthPlant` holds the true state of the vehicle and steps it with the truth
 integrator of :class:`auvdock.vehicle.Vehicle` (RK4 through the mission's flow field, thrust
-held over the step, the integrator :func:`auvdock.simulation.simulate` uses).  Both
-simulators that stand in for the water fly it: :class:`auvdock.hardware.vehicle_sim.VehicleSim`
-(a MAVLink vehicle) and :class:`auvdock.hardware.sitl_physics.SitlPhysics` (the physics
+held over the step, the integrator :func:`auvdock.loop.simulation.simulate` uses).  Both
+simulators that stand in for the water fly it: :class:`auvdock.standins.vehicle_sim.VehicleSim`
+(a MAVLink vehicle) and :class:`auvdock.standins.sitl_physics.SitlPhysics` (the physics
 backend of ArduPilot SITL), so that they move the same vehicle the same way::
 
     plant = TruthPlant(mission.build_vehicle(), mission.build_flow(), mission.start_state(), dt=0.01)
@@ -41,10 +41,10 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from ..geometry import rotation_zyx
-from ..measurements import GRAVITY
-from ..vehicle import Vehicle
-from ..vehicle.state import ANG, LIN, NX
+from auvdock.sensing.measurements import GRAVITY
+from auvdock.vehicle import Vehicle
+from auvdock.vehicle.geometry import rotation_zyx
+from auvdock.vehicle.state import ANG, LIN, NX
 
 __all__ = ["TruthPlant"]
 
@@ -57,11 +57,11 @@ class TruthPlant:
     Parameters
     ----------
     vehicle : Vehicle
-        The model (:meth:`auvdock.mission.Mission.build_vehicle`).
+        The model (:meth:`auvdock.config.mission.Mission.build_vehicle`).
     flow : FlowField or None
-        The true current (:meth:`auvdock.mission.Mission.build_flow`); None is still water.
+        The true current (:meth:`auvdock.config.mission.Mission.build_flow`); None is still water.
     x0 : array_like (12,)
-        Start state (see State), e.g. :meth:`auvdock.mission.Mission.start_state`.
+        Start state (see State), e.g. :meth:`auvdock.config.mission.Mission.start_state`.
     substeps : int
         RK4 substeps per step.
     surface : bool

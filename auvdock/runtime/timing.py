@@ -1,6 +1,6 @@
 """Where a control step's time goes: named parts, measured inside the step.
 
-:class:`auvdock.autopilot.Autopilot` opens a step (:func:`begin`), the pieces that cost time
+:class:`auvdock.loop.autopilot.Autopilot` opens a step (:func:`begin`), the pieces that cost time
 mark themselves with :func:`part` (the estimation stage, the FSE flow filter, the MPC's QP
 data and QP for ``rti``, the NLP solver and its function evaluations for ``sqp`` / ``ipopt``),
 and the step's parts (s) are handed back (:func:`end`) into ``ControlOutput.time_parts``; the

@@ -12,20 +12,20 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from . import timing
-from .controllers import Controller, ControlOutput, Measurement, build_controller, resolve_solver
-from .controllers.registry import CONTROLLERS
-from .controllers.settings import MPCSettings
-from .controllers.status import STATUS_SETTLING
-from .dock import HeaveDock
-from .estimator import EstimatorSettings
-from .interrupts import SigintDeferred
-from .mission import Mission
-from .sensors import SensorSettings
+from auvdock.config.mission import Mission
+from auvdock.controllers import Controller, ControlOutput, Measurement, build_controller, resolve_solver
+from auvdock.controllers.registry import CONTROLLERS
+from auvdock.controllers.settings import MPCSettings
+from auvdock.controllers.status import STATUS_SETTLING
+from auvdock.estimation.flow_filter import EstimatorSettings
+from auvdock.runtime import timing
+from auvdock.runtime.interrupts import SigintDeferred
+from auvdock.sensing.sensors import SensorSettings
+from auvdock.world.dock import HeaveDock
 
 if TYPE_CHECKING:
-    from .estimation import NavigationStage
-from .vehicle import Vehicle
+    from auvdock.estimation.stage import NavigationStage
+from auvdock.vehicle import Vehicle
 
 __all__ = ["Measurement", "Autopilot", "build_autopilot"]
 
@@ -42,7 +42,7 @@ class Autopilot:
     estimator, sensors : EstimatorSettings, SensorSettings, optional
         The flow estimator's settings and the sensor noise it accounts for.
     navigation : NavigationStage, optional
-        The estimation stage of ``estimation: filter`` (:mod:`auvdock.estimation`): every
+        The estimation stage of ``estimation: filter`` (:mod:`auvdock.estimation.stage`): every
         step then estimates the state (and the current) from the measurement's readings
         and hands the controller that estimate.  None: ``estimation: truth``.
 
@@ -83,7 +83,7 @@ class Autopilot:
         """Extra per-step series this autopilot records (name -> per-row shape)."""
         series = dict(getattr(self.controller, "extra_series", {}))
         if self.navigation is not None:
-            from .estimation import ESTIMATION_SERIES
+            from auvdock.estimation.stage import ESTIMATION_SERIES
 
             series.update(ESTIMATION_SERIES)
         return series
@@ -142,7 +142,7 @@ def build_autopilot(
     m = mission if controller is None else mission.with_controller(controller)
     navigation = None
     if m.estimation == "filter":
-        from .estimation import NavigationStage
+        from auvdock.estimation.stage import NavigationStage
 
         navigation = NavigationStage(m.navigation, vehicle, m.controller.dt_s, m.start_state())
     return Autopilot(m.controller, vehicle, dock, m.estimator, m.sensors, navigation)

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .vehicle.state import LIN, NX, POS, YAW
+from auvdock.vehicle.state import LIN, NX, POS, YAW
 
 __all__ = ["HeaveDock"]
 

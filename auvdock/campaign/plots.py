@@ -12,7 +12,7 @@ no pyplot, no global backend switch, no GUI.  Saving drops the time stamps and v
 strings matplotlib would otherwise embed (PNG ``Software``, PDF ``CreationDate``, SVG
 ``Date``), so the same inputs give byte-identical PNG and PDF files.
 
-Frames and units follow :mod:`auvdock.results`: positions NED in metres, times in s,
+Frames and units follow :mod:`auvdock.results.store`: positions NED in metres, times in s,
 speeds in m/s.  Maps put east on the horizontal axis and north on the vertical one.
 """
 
@@ -35,7 +35,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, Patch
 
-from auvdock.results import RunResults
+from auvdock.results.store import RunResults
 
 __all__ = [
     "CONTROLLER_ORDER",

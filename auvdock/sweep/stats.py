@@ -24,7 +24,7 @@ and n of n, unlike the normal approximation.
 
 A numeric field with more than :data:`MAX_LEVELS` distinct values (random draws) is put
 into :data:`N_BINS` equal-width bins; others are shown value by value.  Figures use a fixed
-colour per controller (Okabe-Ito, :data:`auvdock.campaign_plots.CONTROLLER_COLORS`) and are
+colour per controller (Okabe-Ito, :data:`auvdock.campaign.plots.CONTROLLER_COLORS`) and are
 saved without time stamps (Agg canvas, PNG ``Software`` metadata dropped), so the same file
 gives the same bytes.
 """
@@ -42,8 +42,8 @@ import yaml
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from .campaign.store import read_results
-from .campaign_plots import CONTROLLER_ORDER, controller_color, controller_label
+from auvdock.campaign.plots import CONTROLLER_ORDER, controller_color, controller_label
+from auvdock.campaign.store import read_results
 
 __all__ = [
     "Z95",

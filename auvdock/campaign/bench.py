@@ -1,6 +1,6 @@
 """``auvdock bench``: per-step solve time of each controller x solver on the paper's cases.
 
-Each row is one full closed-loop run (:func:`auvdock.simulation.simulate`) of a shipped
+Each row is one full closed-loop run (:func:`auvdock.loop.simulation.simulate`) of a shipped
 paper mission with the given controller and solver; the figures are the wall time of the
 whole controller step (estimator, perception law and MPC for the FSE controllers), in ms:
 median, p95, p99 and max, plus the real-time factor (simulated s per wall s), the docking
@@ -15,8 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from .campaign.machine import machine_line
-from .catalog import PAPER_MISSIONS, missions_dir
+from auvdock.campaign.machine import machine_line
+from auvdock.config.catalog import PAPER_MISSIONS, missions_dir
 
 __all__ = ["PAPER_MISSIONS", "DEFAULT_CASES", "machine_line", "default_missions_dir", "bench_rows"]
 
@@ -24,9 +24,9 @@ DEFAULT_CASES = (1, 2, 6)
 
 
 def _parts_median_ms(parts_s: dict[str, np.ndarray], total_ms: np.ndarray) -> dict[str, float]:
-    """Median ms per part of the step (:mod:`auvdock.timing`), in print order, and ``python``:
+    """Median ms per part of the step (:mod:`auvdock.runtime.timing`), in print order, and ``python``:
     the median of what the parts leave of each step's wall time."""
-    from .timing import PARTS
+    from auvdock.runtime.timing import PARTS
 
     order = [p for p in PARTS if p in parts_s] + sorted(set(parts_s) - set(PARTS))
     out = {p: float(np.median(parts_s[p])) * 1e3 for p in order}
@@ -36,7 +36,7 @@ def _parts_median_ms(parts_s: dict[str, np.ndarray], total_ms: np.ndarray) -> di
 
 
 def default_missions_dir() -> Path:
-    """The shipped missions folder (:func:`auvdock.catalog.missions_dir`)."""
+    """The shipped missions folder (:func:`auvdock.config.catalog.missions_dir`)."""
     return missions_dir()
 
 
@@ -65,9 +65,9 @@ def bench_rows(
     on_row : callable, optional
         Called with each row as soon as it is measured.
     """
-    from .controllers import resolve_solver
-    from .mission import load_mission
-    from .simulation import simulate
+    from auvdock.config.mission import load_mission
+    from auvdock.controllers import resolve_solver
+    from auvdock.loop.simulation import simulate
 
     d = default_missions_dir()
     rows = []

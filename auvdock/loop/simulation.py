@@ -3,13 +3,13 @@
 Every control period dt the autopilot gets a :class:`Measurement` of the true state
 (Assumption 1), the true flow at the vehicle (passed on only to the controllers whose
 definition reads it: Kinematic and Oracle MPC, Assumption 3) and simulated sensors
-(:mod:`auvdock.sensors`), and returns thrust, which is held for dt (zero-order hold) while
+(:mod:`auvdock.sensing.sensors`), and returns thrust, which is held for dt (zero-order hold) while
 the truth model (eqs. 1-2 with the flow field evaluated at the vehicle's position and time)
 is integrated with RK4 substeps.
 
 The run ends when the vehicle is within ``docking.tolerance_m`` of the dock (docked) or at
 ``docking.timeout_s`` (failure, with the closest approach recorded).  Every step is
-written to the results file as it happens (:mod:`auvdock.results`), and the final state --
+written to the results file as it happens (:mod:`auvdock.results.store`), and the final state --
 the one in which docking is declared, or the last one -- is written as a last row with
 status ``no_step``.  A run interrupted at any moment (Ctrl-C) leaves a readable file marked
 ``complete = False``; building the controller (compiling, on first use) is timed apart
@@ -27,15 +27,15 @@ from typing import Any
 
 import numpy as np
 
-from .autopilot import Autopilot, build_autopilot
-from .controllers import Measurement
-from .controllers.status import FAILURE_CODES, STATUS_NAMES, STATUS_NO_STEP
-from .geometry import wrap_angle
-from .interrupts import SigintDeferred
-from .mission import Mission
-from .results import RunWriter, flush_steps
-from .sensors import SensorModel, SensorSuite
-from .vehicle.state import ATT, LIN, POS, YAW
+from auvdock.config.mission import Mission
+from auvdock.controllers import Measurement
+from auvdock.controllers.status import FAILURE_CODES, STATUS_NAMES, STATUS_NO_STEP
+from auvdock.loop.autopilot import Autopilot, build_autopilot
+from auvdock.results.store import RunWriter, flush_steps
+from auvdock.runtime.interrupts import SigintDeferred
+from auvdock.sensing.sensors import SensorModel, SensorSuite
+from auvdock.vehicle.geometry import wrap_angle
+from auvdock.vehicle.state import ATT, LIN, POS, YAW
 
 __all__ = ["Progress", "RunSummary", "simulate", "run_outcome"]
 
@@ -61,7 +61,7 @@ class RunSummary:
     outcome: dict[str, Any]
     path: Path | None = None
     solve_times_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    #: Where each step's time went (:mod:`auvdock.timing`): part name -> (steps,) s, zero
+    #: Where each step's time went (:mod:`auvdock.runtime.timing`): part name -> (steps,) s, zero
     #: where a step had no such part.
     time_parts_s: dict[str, np.ndarray] = field(default_factory=dict)
 
@@ -151,7 +151,7 @@ def simulate(
     autopilot : Autopilot, optional
         A prebuilt autopilot (e.g. with a nominal model that differs from the truth, or a
         modified solver), else built from the mission with
-        :func:`auvdock.autopilot.build_autopilot`; its ``build_time_s`` is the run's
+        :func:`auvdock.loop.autopilot.build_autopilot`; its ``build_time_s`` is the run's
         ``setup_time_s``.
 
     Returns

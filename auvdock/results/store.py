@@ -289,7 +289,7 @@ class RunWriter:
         n_thrusters: int = 8,
     ) -> None:
         if status_names is None:
-            from .controllers import status
+            from auvdock.controllers import status
 
             status_names = status.STATUS_NAMES
         self._status_names = dict(status_names)

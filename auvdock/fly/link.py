@@ -13,15 +13,15 @@ Facts from ArduSub's source this follows:
   SYSID_MYGCS, default 255), so we send as 255 unless told otherwise;
 * in an override, ``UINT16_MAX`` means "ignore this channel" and 0 "release it to the RC
   radio"; an override lapses 3 s after the last message;
-* flight modes are custom_mode numbers (:data:`auvdock.hardware.ardusub.MODES`);
+* flight modes are custom_mode numbers (:data:`auvdock.vehicle.ardusub.MODES`);
 * arming is MAV_CMD_COMPONENT_ARM_DISARM, answered with COMMAND_ACK, and shows as the
   MAV_MODE_FLAG_SAFETY_ARMED bit of HEARTBEAT.base_mode;
 * telemetry rates are set with MAV_CMD_SET_MESSAGE_INTERVAL (param3 = 0).
 
 Every wait (the heartbeat, a COMMAND_ACK, a mode or the armed bit, the reader's and the
 heartbeat thread's pauses) and every time stamp (message ages, tlog records) goes through
-the link's :class:`auvdock.clock.Clock`: the wall clock by default, or a
-:class:`auvdock.clock.SimClock` shared with :class:`auvdock.hardware.vehicle_sim.VehicleSim`
+the link's :class:`auvdock.runtime.clock.Clock`: the wall clock by default, or a
+:class:`auvdock.runtime.clock.SimClock` shared with :class:`auvdock.standins.vehicle_sim.VehicleSim`
 to fly in simulated time (UDP connections only).
 """
 
@@ -38,8 +38,8 @@ from typing import Any
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
-from ..clock import Clock, ClockClosedError, wall_clock
-from .ardusub import MODES, NEUTRAL_CHANNELS
+from auvdock.runtime.clock import Clock, ClockClosedError, wall_clock
+from auvdock.vehicle.ardusub import MODES, NEUTRAL_CHANNELS
 
 __all__ = ["LinkError", "MavlinkLink", "connection_string", "for_session", "PILOT_INPUT_TYPES"]
 

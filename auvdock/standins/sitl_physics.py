@@ -4,8 +4,8 @@ With ``ardusub --model JSON`` (or ``sim_vehicle.py -v ArduSub -f vectored_6dof -
 JSON``) the real ArduSub firmware -- mixer, modes, failsafes, EKF -- computes its motor
 outputs and hands them, one frame per physics step, to a program that answers with the
 vehicle's new state.  :class:`SitlPhysics` is that program: it moves the mission's vehicle
-through the mission's flow field with :class:`auvdock.hardware.plant.TruthPlant` (the truth
-plant :class:`auvdock.hardware.vehicle_sim.VehicleSim` flies too)::
+through the mission's flow field with :class:`auvdock.world.plant.TruthPlant` (the truth
+plant :class:`auvdock.standins.vehicle_sim.VehicleSim` flies too)::
 
     physics = SitlPhysics(load_mission("missions/tank_0p6hz.yaml")).start()   # UDP 127.0.0.1:9002
     ...                                                                         # ardusub --model JSON
@@ -46,11 +46,11 @@ Protocol (ArduPilot ``libraries/SITL/SIM_JSON.cpp`` / ``SIM_JSON.h``)
   the frame is then stepped as new.  (SITL, for its part, takes a timestamp
   that goes back as a "physics reset" and carries on without moving its own clock back.)
 * **Motors**: servo channels 1..8 are ArduSub's motors 1..8 of the VECTORED_6DOF frame, in
-  the order of :data:`auvdock.hardware.ardusub.MOTOR_FACTORS` and of the vehicle's
+  the order of :data:`auvdock.vehicle.ardusub.MOTOR_FACTORS` and of the vehicle's
   allocation columns.  Motor PWM ``p`` (us; 0 -- no output -- is neutral 1500, others are
   clamped to 1100..1900) pushes thruster i along ``+e_i`` with
   the vehicle's thruster curve at ``2 * 1500 - p`` (the T200's: ``t200_pwm_to_force``), the chain of
-  :func:`auvdock.hardware.ardusub.thrust_from_channels` after the mixer.  Channels 9+ are
+  :func:`auvdock.vehicle.ardusub.thrust_from_channels` after the mixer.  Channels 9+ are
   ignored.
 * **Hold** (``hold_until_thrust=True``, default): until the motors first push (a motor
   outside the T200's dead band), the vehicle's motion is prescribed, not integrated -- a
@@ -76,7 +76,7 @@ another address), ``lowering``, ``at-start``, ``release``, ``reset``, ``duration
 (``duration_s`` of physics time done).
 
 Clock: the server's waits (for a datagram, for its thread) go through a
-:class:`auvdock.clock.Clock` (default the wall clock); physics time comes from the frames
+:class:`auvdock.runtime.clock.Clock` (default the wall clock); physics time comes from the frames
 alone.
 """
 
@@ -93,13 +93,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..clock import Clock, wall_clock
-from ..geometry import wrap_angle
-from ..interrupts import SigintDeferred
-from ..mission import Mission, load_mission
-from ..vehicle.state import POS
-from ..vehicle.thrusters import PWM_MAX_US, PWM_MIN_US, PWM_NEUTRAL_US, T200, ThrusterCurve
-from .plant import TruthPlant
+from auvdock.config.mission import Mission, load_mission
+from auvdock.runtime.clock import Clock, wall_clock
+from auvdock.runtime.interrupts import SigintDeferred
+from auvdock.vehicle.geometry import wrap_angle
+from auvdock.vehicle.state import POS
+from auvdock.vehicle.thrusters import PWM_MAX_US, PWM_MIN_US, PWM_NEUTRAL_US, T200, ThrusterCurve
+from auvdock.world.plant import TruthPlant
 
 __all__ = [
     "DEFAULT_LISTEN",
@@ -322,7 +322,7 @@ class SitlPhysics:
     substeps : int, optional
         RK4 substeps per step (default ``mission.simulation.substeps``).
     surface : bool
-        Floor the depth at 0 m (:class:`~auvdock.hardware.plant.TruthPlant`'s free surface).
+        Floor the depth at 0 m (:class:`~auvdock.world.plant.TruthPlant`'s free surface).
     on_event : callable, optional
         ``on_event(event)`` for each :class:`PhysicsEvent`, called from the server's thread.
     clock : Clock, optional

@@ -1,6 +1,6 @@
 """The navigation filter: an extended Kalman filter of the vehicle state AND the water current.
 
-It fuses asynchronous sensor readings (the kinds of :mod:`auvdock.measurements`: attitude,
+It fuses asynchronous sensor readings (the kinds of :mod:`auvdock.sensing.measurements`: attitude,
 gyro, accel, depth, position, dvl) with the ONE vehicle model
 (:class:`auvdock.vehicle.model.VehicleModel`) driven by the commanded thrust.
 
@@ -21,7 +21,7 @@ with the thrust held, the current held; the Jacobian ``F = dz_next/dz`` comes fr
 :class:`NavigationSettings`, h the time step, ``dP2`` the model's second-order term, see
 :func:`_second_order_covariance`).  Update: every reading of the step in ONE stacked update (the
 readings' noises are independent, so this equals updating with them one after the other),
-``y = h(x, u, v_c)`` and ``H = dh/dz`` from :mod:`auvdock.measurements`, ``R = diag(std^2)``
+``y = h(x, u, v_c)`` and ``H = dh/dz`` from :mod:`auvdock.sensing.measurements`, ``R = diag(std^2)``
 plus the accelerometer's second-order term, iterated (Gauss-Newton) while the measurement
 model is far from its linearisation, Joseph form ``P <- (I - K H) P (I - K H)^T + K R K^T``;
 attitude residuals are wrapped to [-pi, pi), and so is the yaw estimate.
@@ -38,7 +38,7 @@ Cost: one CasADi call (predict, F, P propagation with its second-order term and 
 measurement's value and Jacobian at the predicted state), one for the accelerometer's
 second-order covariance, one for the measurement model at each iterate (usually one, which
 shows the linearisation holds) and a few small numpy products per step; compiled C when a C compiler
-is available and ``$AUVDOCK_COMPILE`` is not ``never`` (:func:`auvdock.codegen.compiled_function`).
+is available and ``$AUVDOCK_COMPILE`` is not ``never`` (:func:`auvdock.runtime.codegen.compiled_function`).
 ``benchmarks/navigation_step.py`` measures it.
 """
 
@@ -52,13 +52,13 @@ import casadi as ca
 import numpy as np
 from pydantic import Field
 
-from . import measurements
-from .codegen import compiled_function
-from .estimator import chi2_quantile
-from .fastcall import BufferedFunction
-from .schema import PosFloat, Strict
-from .vehicle.model import rk4
-from .vehicle.state import ANG, ATT, LIN, NX, POS, YAW
+from auvdock.config.schema import PosFloat, Strict
+from auvdock.estimation.flow_filter import chi2_quantile
+from auvdock.runtime.codegen import compiled_function
+from auvdock.runtime.fastcall import BufferedFunction
+from auvdock.sensing import measurements
+from auvdock.vehicle.model import rk4
+from auvdock.vehicle.state import ANG, ATT, LIN, NX, POS, YAW
 
 __all__ = ["NavigationSettings", "Reading", "NavEstimate", "NavigationFilter", "NZ"]
 
@@ -194,7 +194,7 @@ class NavigationSettings(Strict):
 class Reading:
     """One sensor reading.
 
-    ``kind``: a key of :data:`auvdock.measurements.KINDS`; ``t``: sample time, s; ``value``
+    ``kind``: a key of :data:`auvdock.sensing.measurements.KINDS`; ``t``: sample time, s; ``value``
     (``KINDS[kind]``,) in the kind's units; ``std`` (same shape, or a scalar): the noise
     standard deviation of each component.
     """

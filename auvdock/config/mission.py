@@ -28,17 +28,17 @@ from pydantic import (
     model_validator,
 )
 
-from .controllers.registry import controller_names, settings_for, settings_union, split_controller
-from .controllers.solvers import solver_names
-from .dock import HeaveDock
-from .estimator import EstimatorSettings
-from .flow import ConstantCurrent, DoubleGyre, FlowField, StillWater, flow_case, flow_case_names
-from .navigation import NavigationSettings
-from .schema import NonNegFloat, PosFloat, Strict, Vec3, Vec12, first_error, fixed_len
-from .sensors import SensorSettings
-from .vehicle import Vehicle, load_vehicle, preset_names
-from .vehicle.params import VehicleParamsError
-from .yamlio import load_yaml_strict
+from auvdock.config.schema import NonNegFloat, PosFloat, Strict, Vec3, Vec12, first_error, fixed_len
+from auvdock.config.yamlio import load_yaml_strict
+from auvdock.controllers.registry import controller_names, settings_for, settings_union, split_controller
+from auvdock.controllers.solvers import solver_names
+from auvdock.estimation.flow_filter import EstimatorSettings
+from auvdock.estimation.navigation_filter import NavigationSettings
+from auvdock.sensing.sensors import SensorSettings
+from auvdock.vehicle import Vehicle, load_vehicle, preset_names
+from auvdock.vehicle.params import VehicleParamsError
+from auvdock.world.dock import HeaveDock
+from auvdock.world.flow import ConstantCurrent, DoubleGyre, FlowField, StillWater, flow_case, flow_case_names
 
 __all__ = [
     "Mission",
@@ -216,13 +216,13 @@ class DockSpec(Strict):
     def _valid_layout(cls, v: dict[str, Any] | None) -> dict[str, Any] | None:
         if v is None:
             return v
-        from .camera.layout import MarkerLayout
+        from auvdock.camera.layout import MarkerLayout
 
         return MarkerLayout.from_dict(v).to_dict()
 
     def marker_layout(self):
         """The :class:`auvdock.camera.MarkerLayout` of the dock (the default one if not given)."""
-        from .camera.layout import MarkerLayout, default_layout
+        from auvdock.camera.layout import MarkerLayout, default_layout
 
         return default_layout() if self.markers is None else MarkerLayout.from_dict(self.markers)
 
@@ -412,7 +412,7 @@ class Mission(Strict):
     estimation: Literal["truth", "filter"] = Field(
         default="truth",
         description="what every controller takes its state from: truth (the paper's Assumption 1) "
-        "or filter (the navigation filter on the sensor suite: auvdock.estimation)",
+        "or filter (the navigation filter on the sensor suite: auvdock.estimation.stage)",
     )
     navigation: NavigationSettings = Field(default_factory=NavigationSettings)
     estimator: EstimatorSettings = Field(default_factory=EstimatorSettings)
@@ -468,7 +468,7 @@ class Mission(Strict):
         MissionError
             No calibration file for a real camera, or a file that does not read.
         """
-        from .camera.model import CameraModel, load_camera
+        from auvdock.camera.model import CameraModel, load_camera
 
         c = self.camera
         where = self._source or "mission"

@@ -46,13 +46,13 @@ import casadi as ca
 import numpy as np
 from pydantic import Field
 
-from .codegen import compiled_function
-from .fastcall import BufferedFunction
-from .geometry import skew
-from .schema import Strict, Vec3
-from .vehicle import Vehicle
-from .vehicle.model import rk4
-from .vehicle.state import ATT, LIN, NX
+from auvdock.config.schema import Strict, Vec3
+from auvdock.runtime.codegen import compiled_function
+from auvdock.runtime.fastcall import BufferedFunction
+from auvdock.vehicle import Vehicle
+from auvdock.vehicle.geometry import skew
+from auvdock.vehicle.model import rk4
+from auvdock.vehicle.state import ATT, LIN, NX
 
 __all__ = [
     "EstimatorSettings",
@@ -78,7 +78,7 @@ def flow_transition(nu2, dt: float, lib=np):
         A = -skew(np.asarray(nu2, dtype=float)) * dt
         eye = np.eye(3)
     else:
-        from .vehicle.model import Smtrx
+        from auvdock.vehicle.model import Smtrx
 
         A = -Smtrx(nu2) * dt
         eye = ca.DM.eye(3)

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 
-from ..measurements import GRAVITY
+from auvdock.sensing.measurements import GRAVITY
 
 __all__ = [
     "GRAVITY",

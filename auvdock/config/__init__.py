@@ -1,0 +1,1 @@
+"""Input files: missions, their schema, strict YAML and the shipped catalogue."""

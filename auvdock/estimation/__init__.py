@@ -1,0 +1,1 @@
+"""Estimation: the FSE flow filter, the navigation filter and the estimation stage."""

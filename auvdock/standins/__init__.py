@@ -1,0 +1,1 @@
+"""Stand-in vehicles: a MAVLink vehicle simulator and ArduPilot SITL's physics backend."""
