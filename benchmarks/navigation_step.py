@@ -22,7 +22,8 @@ def main() -> None:
     args = ap.parse_args()
     if args.never_compile:
         os.environ["AUVDOCK_COMPILE"] = "never"
-    from auvdock.estimation.navigation_filter import NavigationFilter, NavigationSettings, Reading
+    from auvdock.estimation.navigation_filter import NavigationFilter, NavigationSettings
+    from auvdock.sensing.readings import Reading
     from auvdock.sensing import measurements as ms
     from auvdock.vehicle import load_vehicle
 

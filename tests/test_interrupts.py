@@ -1,16 +1,20 @@
 """Ctrl-C at any moment of ``auvdock sim``: exit 130, one line, no traceback, a readable file.
 
-The moments are drawn at random over the command's whole life (loading, building the
-controller, the run, writing), six of them; the test asserts outcomes, never durations.
+Each moment of the command's life gets a real SIGINT at a chosen point of the program
+(tests/helpers/ctrl_c.py runs the command the way the console script does and signals
+itself there): while the command line loads its commands, while the controller is built,
+as the run starts, after control steps drawn once from a fixed seed (plus the first), while
+the outcome is written, and while the summary is printed.  So every moment is exercised at
+any machine load, none can come "too late", and the test asserts outcomes, never durations.
 """
 
 from __future__ import annotations
 
 import os
-import signal
+import random
+import re
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -19,38 +23,50 @@ import pytest
 from auvdock.results.store import read_run
 
 ROOT = Path(__file__).resolve().parents[1]
+CTRL_C = ROOT / "tests" / "helpers" / "ctrl_c.py"
+TIMEOUT_S = 3  # diagonal / naive docks after 19 s: an uninterrupted run ends by timeout, 60 steps
+STEPS = sorted(random.Random(1234).sample(range(1, 60), 3))  # [8, 29, 50]
+
+MOMENTS = [
+    pytest.param("import:auvdock.cli.campaign", id="loading-the-commands"),
+    pytest.param("call:auvdock.loop.autopilot:build_autopilot", id="building-the-controller"),
+    pytest.param("call:auvdock.loop.simulation:simulate", id="starting-the-run"),
+    *[pytest.param(f"sim-step:{k}", id=f"after-step-{k}") for k in [0, *STEPS]],
+    pytest.param("call:auvdock.results.store:RunWriter.finish", id="writing-the-outcome"),
+    pytest.param("call:auvdock.cli.sim:_summary_table", id="printing-the-summary"),
+]
 
 
-def _interrupt_after(delay_s: float, out: Path) -> subprocess.CompletedProcess:
+def _sim_interrupted(moment: str, out: Path) -> subprocess.CompletedProcess:
     env = {**os.environ, "AUVDOCK_COMPILE": "never", "PYTHONUNBUFFERED": "1"}
-    cmd = [sys.executable, "-m", "auvdock.cli", "sim", "diagonal", "-c", "naive", "--timeout", "75"]
-    cmd += ["--no-plots", "--out", str(out)]
-    p = subprocess.Popen(
-        cmd, cwd=out.parent, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
-    )
-    time.sleep(delay_s)
-    if p.poll() is None:
-        p.send_signal(signal.SIGINT)
-    stdout, stderr = p.communicate(timeout=120)
-    return subprocess.CompletedProcess(cmd, p.returncode, stdout, stderr)
+    args = ["sim", "diagonal", "-c", "naive", "--timeout", str(TIMEOUT_S), "--no-plots", "--out", str(out)]
+    cmd = [sys.executable, str(CTRL_C), moment, *args]
+    return subprocess.run(cmd, cwd=out.parent, env=env, capture_output=True, text=True, timeout=300)
 
 
-@pytest.mark.parametrize("k", range(6))
-def test_sim_sigint_at_a_random_moment(k: int, tmp_path: Path) -> None:
-    delay = float(np.random.default_rng(1000 + k).uniform(0.3, 3.0))
+@pytest.mark.parametrize("moment", MOMENTS)
+def test_sim_sigint_at_every_moment(moment: str, tmp_path: Path) -> None:
     out = tmp_path / "runs"
-    res = _interrupt_after(delay, out)
-    if res.returncode in (0, 1):  # it finished first (a fast machine): then it must have finished whole
-        r = read_run(out / "diagonal_naive.h5")
-        assert r.complete
-        pytest.skip(f"the run ended before the signal at {delay:.2f} s")
-    assert res.returncode == 130, res.stderr
-    assert "Traceback" not in res.stderr and "Traceback" not in res.stdout
+    res = _sim_interrupted(moment, out)
+    what = f"{moment}:\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
+    assert res.returncode == 130, what
+    assert "Traceback" not in res.stderr + res.stdout, what
     lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
-    assert len(lines) == 1 and lines[0].startswith("interrupted"), (delay, res.stderr, res.stdout)
+    assert len(lines) == 1 and lines[0].startswith("interrupted"), what
     h5 = out / "diagonal_naive.h5"
-    if h5.exists():  # interrupted after the run started: every finished step is readable
+    for named in re.findall(r"\S+\.h5", lines[0]):  # the message names only files that are there
+        assert Path(named).is_file(), what
+        if "complete = False" in lines[0]:
+            assert not read_run(named).complete, what
+    if h5.exists():  # whatever the moment, what is on disk reads back
         r = read_run(h5)
-        assert not r.complete
-        assert r.state.shape == (r.n_steps, 12)
-        assert np.all(np.isfinite(r.state))
+        assert r.state.shape == (r.n_steps, 12) and np.all(np.isfinite(r.state)), what
+    if moment.startswith(("import:", "call:auvdock.loop.autopilot:")):  # before the run: no file
+        assert lines == ["interrupted"] and not h5.exists(), what
+    elif moment.startswith("sim-step:"):  # every finished step, then incomplete
+        k = int(moment.split(":")[1])
+        r = read_run(h5)
+        assert not r.complete and r.n_steps == k + 1, what
+        assert lines == [f"interrupted: the steps so far are in {h5} (complete = False)"], what
+    elif moment == "call:auvdock.cli.sim:_summary_table":  # the run had ended whole
+        assert lines == ["interrupted"] and read_run(h5).complete, what

@@ -16,10 +16,10 @@ from auvdock.estimation.navigation_filter import (
     NavEstimate,
     NavigationFilter,
     NavigationSettings,
-    Reading,
 )
 from auvdock.sensing import measurements as ms
-from auvdock.sensing.sensors import SensorSettings
+from auvdock.sensing.readings import Reading
+from auvdock.sensing.settings import SensorSettings
 from auvdock.vehicle import load_vehicle
 from auvdock.vehicle.state import NX, YAW
 from auvdock.world.flow import ConstantCurrent

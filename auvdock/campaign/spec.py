@@ -122,12 +122,18 @@ class Plan:
         Columns between ``run_id`` and the outcome columns: name -> kind.
     attrs : dict
         Extra attributes of the results file (str or numbers; JSON text for structures).
+    same_on_resume : dict
+        Attributes (lists, in ``attrs``) a resumed file must have been made with, as sets:
+        attribute name -> the table column that holds the same values in files written
+        before the attribute was (``{"controllers": "controller"}``); resuming with other
+        values is refused (:func:`auvdock.campaign.store.check_resume`).
     """
 
     kind: str
     specs: list[RunSpec]
     label_columns: dict[str, str] = field(default_factory=dict)
     attrs: dict[str, Any] = field(default_factory=dict)
+    same_on_resume: dict[str, str] = field(default_factory=dict)
 
     @property
     def columns(self) -> dict[str, str]:
@@ -164,9 +170,9 @@ def apply_overrides(
     """
     try:
         m = Mission.model_validate(data)
-        return m.with_updates(**overrides) if overrides else m
     except ValidationError as e:
         raise MissionError(source, *first_error(Mission, e)) from None
+    return m.with_updates(overrides, where=source) if overrides else m
 
 
 def empty_row(spec: RunSpec, columns: dict[str, str]) -> dict[str, Any]:

@@ -37,7 +37,7 @@ from typing import Any
 import h5py
 import numpy as np
 
-from auvdock import __version__
+from auvdock._version import __version__
 from auvdock.campaign.spec import Plan, RunSpec
 from auvdock.results.store import list_runs, open_format, read_run
 from auvdock.runtime.interrupts import SigintDeferred
@@ -48,6 +48,7 @@ __all__ = [
     "TABLE",
     "ResultsFileError",
     "check_output",
+    "check_resume",
     "ResultsStore",
     "read_results",
     "read_run_groups",
@@ -96,6 +97,59 @@ def check_output(path: str | Path, kind: str, *, resume: bool = False, force: bo
             "start again"
         )
     return True
+
+
+def _made_with(f: h5py.File, attr: str, column: str) -> list[str] | None:
+    """The values of list attribute ``attr`` a results file was made with; for a file written
+    before it was recorded, the distinct values of its table's ``column``; None if neither."""
+    raw = f.attrs.get(attr)
+    if raw is not None:
+        try:
+            return [str(v) for v in json.loads(_attr(raw))]
+        except (TypeError, ValueError):
+            return None
+    if TABLE not in f or column not in (f[TABLE].dtype.names or ()):
+        return None
+    return list(dict.fromkeys(_decode("str", v) for v in f[TABLE][column][()]))
+
+
+def _resume_mismatch(f: h5py.File, path: Path, plan: Plan) -> str | None:
+    """The one line that refuses resuming ``f`` with ``plan`` (other values of an attribute of
+    ``plan.same_on_resume``), or None."""
+    differ = []  # (attribute, the file's values, this plan's values)
+    for attr, column in plan.same_on_resume.items():
+        old = _made_with(f, attr, column)
+        new = [str(v) for v in plan.attrs.get(attr, [])]
+        if old is not None and set(old) != set(new):
+            differ.append((attr, ",".join(old) or "none", ",".join(new) or "none"))
+    if not differ:
+        return None
+    was = " and ".join(f"{attr} {old}" for attr, old, _ in differ)
+    # one difference: "this run asks for oracle"; two: "... asks for missions still and controllers oracle"
+    asks = differ[0][2] if len(differ) == 1 else " and ".join(f"{attr} {new}" for attr, _, new in differ)
+    where = f"{path.parent}/" if path.name in ("campaign.h5", "sweep.h5") else str(path)
+    return f"--resume: {where} was made with {was}; this run asks for {asks}"
+
+
+def check_resume(path: str | Path, plan: Plan) -> None:
+    """Raise :class:`ResultsFileError` if resuming the results file ``path`` with ``plan`` would mix
+    two campaigns: the file was made with other values of an attribute of ``plan.same_on_resume``
+    (a compare campaign: other missions or other controllers).  One line, naming what differs::
+
+        --resume: out/ was made with controllers oracle,sequential; this run asks for oracle
+
+    A missing or unreadable file passes (:func:`check_output` says what is wrong with it).
+    """
+    path = Path(path)
+    if not plan.same_on_resume or not path.is_file():
+        return
+    try:
+        with h5py.File(path, "r") as f:
+            problem = _resume_mismatch(f, path, plan)
+    except OSError:
+        return
+    if problem is not None:
+        raise ResultsFileError(problem)
 
 
 def _dtype(columns: dict[str, str]) -> np.dtype:
@@ -187,6 +241,9 @@ class ResultsStore:
                     f"{self.path}: was written by a different {what} (its table columns differ); use "
                     "another --out or --force"
                 )
+            if f is not None and (problem := _resume_mismatch(f, self.path, plan)) is not None:
+                f.close()
+                raise ResultsFileError(problem)
         if f is None:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             f = h5py.File(self.path, "w")

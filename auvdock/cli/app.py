@@ -14,7 +14,7 @@ from pathlib import Path
 import typer
 from rich.console import Console
 
-from auvdock import __version__
+from auvdock._version import __version__
 from auvdock.config.mission import Mission, MissionError, load_mission
 
 
@@ -72,6 +72,27 @@ def positive_timeout(value: float | None) -> float | None:
     with one line (the same rule in sim, compare, sweep, bench and fly)."""
     if value is not None and not (value > 0 and value < float("inf")):
         fail_input(f"--timeout: must be a positive number of seconds (got {value})")
+    return value
+
+
+def check_estimation(value: str | None) -> str | None:
+    """``--estimation``: None or one of :data:`auvdock.estimation.stage.ESTIMATION_MODES`; else exit 2
+    with one line (the same rule in sim, compare and fly)."""
+    if value is None:
+        return None
+    from auvdock.estimation.stage import ESTIMATION_MODES
+
+    if value not in ESTIMATION_MODES:
+        *first, last = ESTIMATION_MODES
+        choices = f"{', '.join(first)} or {last}" if first else last
+        fail_input(f"--estimation: must be {choices} (got {value!r})")
+    return value
+
+
+def check_seed(value: int | None) -> int | None:
+    """``--seed``: None or a whole number >= 0 (a mission's ``seed``); else exit 2 with one line."""
+    if value is not None and value < 0:
+        fail_input(f"--seed: must be at least 0 (got {value})")
     return value
 
 

@@ -15,6 +15,8 @@ from rich.table import Table
 from auvdock.cli.app import (
     app,
     check_controller,
+    check_estimation,
+    check_seed,
     console,
     err_console,
     exit_interrupted,
@@ -24,6 +26,7 @@ from auvdock.cli.app import (
     positive_timeout,
 )
 from auvdock.config.mission import MissionError
+from auvdock.controllers.registry import controller_names
 
 if TYPE_CHECKING:
     from auvdock.loop.simulation import Progress as SimProgress
@@ -71,12 +74,12 @@ def _summary_table(title: str, outcome: dict[str, Any]) -> Table:
 
 @app.command()
 def sim(
-    mission: Path = typer.Argument(..., help="Mission YAML file."),
+    mission: Path = typer.Argument(..., help="Mission YAML file or shipped mission name (e.g. gyre)."),
     controller: str | None = typer.Option(
         None,
         "--controller",
         "-c",
-        help="naive | kinematic | oracle | sequential | optimized (default: the mission's).",
+        help=f"{' | '.join(controller_names())} (default: the mission's).",
     ),
     out: Path | None = typer.Option(
         None, "--out", "-o", help="Output directory (default: the mission's output.dir)."
@@ -109,19 +112,17 @@ def sim(
     m = load_or_exit(mission)
     if controller is not None:
         check_controller(controller)
-    if seed is not None:
-        if seed < 0:
-            fail_input(f"--seed: must be >= 0 (got {seed})")
+    if check_seed(seed) is not None:
         m = m.with_updates(seed=seed)
     if controller is not None:
         m = m.with_updates(**{"controller.type": controller})
-    if estimation is not None:
-        if estimation not in ("truth", "filter"):
-            fail_input(f"--estimation: must be truth or filter (got {estimation!r})")
+    if check_estimation(estimation) is not None:
         m = m.with_updates(estimation=estimation)
     if variant is not None:
-        if variant not in ("paper", "robust"):
-            fail_input(f"--variant: must be paper or robust (got {variant!r})")
+        from auvdock.controllers.registry import VARIANTS
+
+        if variant not in VARIANTS:
+            fail_input(f"--variant: must be {' or '.join(VARIANTS)} (got {variant!r})")
         m = m.with_updates(**{"controller.variant": variant})
     if m.dock.source == "camera":
         err_console.print(
@@ -146,8 +147,12 @@ def sim(
     )
     from auvdock.loop.autopilot import build_autopilot
 
-    # build (and, the first time, compile) the controller before the progress display starts
-    ap = build_autopilot(m, m.build_vehicle(), m.build_dock())
+    from auvdock.runtime.interrupts import SigintDeferred
+
+    # build (and, the first time, compile) the controller before the progress display starts;
+    # whole: CasADi would swallow a Ctrl-C landing in the construction (it is raised after it)
+    with SigintDeferred():
+        ap = build_autopilot(m, m.build_vehicle(), m.build_dock())
     with Progress(
         SpinnerColumn(),
         TextColumn("[progress.description]{task.description}"),
@@ -174,6 +179,10 @@ def sim(
         try:
             summary = simulate(m, out=h5, progress=on_step, timeout_s=timeout, autopilot=ap)
         except KeyboardInterrupt:
+            if not h5.is_file():
+                exit_interrupted("interrupted before the first step: no results file was written")
+            if read_run(h5).complete:  # the Ctrl-C came as the outcome was written, held back to its end
+                exit_interrupted(f"interrupted after the run ended: its results are complete in {h5}")
             exit_interrupted(f"interrupted: the steps so far are in {h5} (complete = False)")
         bar.update(task, completed=summary.outcome["end_time_s"])
 

@@ -34,7 +34,7 @@ from auvdock.controllers.registry import controller_names, settings_for, setting
 from auvdock.controllers.solvers import solver_names
 from auvdock.estimation.flow_filter import EstimatorSettings
 from auvdock.estimation.navigation_filter import NavigationSettings
-from auvdock.sensing.sensors import SensorSettings
+from auvdock.sensing.settings import SensorSettings
 from auvdock.vehicle import Vehicle, load_vehicle, preset_names
 from auvdock.vehicle.params import VehicleParamsError
 from auvdock.world.dock import HeaveDock
@@ -258,6 +258,12 @@ class SimulationSpec(Strict):
     """Truth simulation settings."""
 
     substeps: Annotated[int, Field(ge=1)] = Field(default=4, description="RK4 substeps per control period")
+    actuators: Literal["ideal", "ardusub"] = Field(
+        default="ideal",
+        description="actuator path: ideal (the commanded thrust applied exactly, the paper's "
+        "idealisation) or ardusub (RC override channels, ArduSub's VECTORED_6DOF mixer, PWM "
+        "limits and the thruster curve with its dead band, as fly flies it; 8 thrusters)",
+    )
 
 
 class GeofenceSpec(Strict):
@@ -526,25 +532,176 @@ class Mission(Strict):
             m._source = self._source
         return m
 
-    def with_updates(self, **changes: Any) -> Mission:
-        """A validated copy with dotted-path changes, e.g. ``{"seed": 3, "controller.alpha": 2e-3}``.
+    def with_updates(
+        self, changes: dict[str, Any] | None = None, /, *, where: str | Path | None = None, **more: Any
+    ) -> Mission:
+        """A validated copy of the mission with some fields changed.
+
+        Parameters
+        ----------
+        changes : mapping of str to any, optional
+            Field path -> new value (positional only; merged with ``**more``, which wins).
+        where : str or Path, optional
+            What an error names as the source of the changes, e.g. ``"simulate"`` (default:
+            the mission's file, or ``"<mission>"``).
+        **more
+            More changes, ``path=value``.
+
+        A path names a field from the top of the mission, its parts joined by ``.`` or by
+        ``__`` (the spelling a Python keyword allows): ``{"docking.timeout_s": 20}`` and
+        ``docking__timeout_s=20`` are the same change.  A part that is a number indexes a
+        list (``dock__position_ned_m__2=6.0``: the dock's depth).  A mapping given for a
+        *section* (a group of fields: ``docking``, ``controller``, ``dock.heave``, ...)
+        changes the fields it names, recursively, and keeps the others:
+        ``docking={"timeout_s": 20}`` is ``docking__timeout_s=20``.  Any other value -- a
+        list, or a mapping for a free-form mapping field such as ``vehicle.overrides`` --
+        replaces the field whole.  Values are the mission file's (units in the field
+        names); numpy arrays and scalars are taken as lists and numbers.
 
         ``controller.type`` switches the controller as :meth:`with_controller` does (the
-        other type's own fields are dropped), before the other changes apply.
+        other type's own fields are dropped), before the other changes apply, so
+        ``{"controller.type": "optimized", "controller.alpha": 2e-3}`` works.  Setting one
+        of two alternative fields clears the other unless both are given: ``flow.case`` /
+        ``flow.type``, ``dock.heave.angular_frequency_rad_s`` / ``dock.heave.frequency_hz``,
+        ``vehicle.preset`` / ``vehicle.file``.
+
+        Returns
+        -------
+        Mission
+            The new mission (``source`` kept); this one is unchanged.
+
+        Raises
+        ------
+        MissionError
+            One line naming ``where``, the field path and the problem, for a field that does
+            not exist (``simulate: docking.tolerence_m: no such field (did you mean
+            tolerance_m?)``) or a value the mission refuses (``simulate: docking.timeout_s:
+            input should be greater than 0 (got -1)``); nothing is changed.
         """
+        import difflib
+        from collections.abc import Mapping as _Mapping
+
+        from pydantic import BaseModel
+
+        from auvdock.controllers.registry import CONTROLLERS
+
+        label: str | Path = where if where is not None else (self._source or "<mission>")
+        alternatives = {
+            ("flow", "case"): ("flow", "type"),
+            ("flow", "type"): ("flow", "case"),
+            ("dock", "heave", "angular_frequency_rad_s"): ("dock", "heave", "frequency_hz"),
+            ("dock", "heave", "frequency_hz"): ("dock", "heave", "angular_frequency_rad_s"),
+            ("vehicle", "preset"): ("vehicle", "file"),
+            ("vehicle", "file"): ("vehicle", "preset"),
+        }
+
+        def plain(value: Any) -> Any:
+            """numpy arrays / scalars, tuples and paths as the plain data a mission file holds."""
+            if isinstance(value, np.ndarray):
+                return value.tolist()
+            if isinstance(value, np.generic):
+                return value.item()
+            if isinstance(value, tuple):
+                return [plain(v) for v in value]
+            if isinstance(value, Path):
+                return str(value)
+            return value
+
+        def node_at(root: Any, parts: tuple[str, ...]) -> Any:
+            """The value at ``parts`` (None where the path does not lead)."""
+            node = root
+            for part in parts:
+                if isinstance(node, BaseModel) and part in type(node).model_fields:
+                    node = getattr(node, part)
+                elif isinstance(node, list) and part.isdigit() and int(part) < len(node):
+                    node = node[int(part)]
+                else:
+                    return None
+            return node
+
+        def flatten(prefix: tuple[str, ...], value: Any, out: dict[tuple[str, ...], Any]) -> None:
+            if isinstance(value, _Mapping) and isinstance(node_at(self, prefix), BaseModel):
+                for key, sub in value.items():
+                    flatten((*prefix, *str(key).replace("__", ".").split(".")), sub, out)
+            else:
+                out[prefix] = plain(value)
+
+        def problem_at(root: Any, parts: tuple[str, ...]) -> tuple[str, str] | None:
+            """``(shown path, problem)`` if ``parts`` is not a field of ``root``, else None."""
+            node = root
+            for i, part in enumerate(parts):
+                here = ".".join(parts[: i + 1])
+                if isinstance(node, BaseModel):
+                    fields = list(type(node).model_fields)
+                    if part in fields:
+                        node = getattr(node, part)
+                        continue
+                    section = ".".join(parts[:i]) or "the mission"
+                    if parts[:i] == ("controller",):
+                        owners = [n for n, e in CONTROLLERS.items() if part in e.settings.model_fields]
+                        if owners:
+                            return here, (
+                                f"no such field for controller type {node.type} (a setting of "
+                                f"{', '.join(owners)}: set controller.type too)"
+                            )
+                    close = difflib.get_close_matches(part, fields, n=1, cutoff=0.6)
+                    hint = f"did you mean {close[0]}?" if close else f"{section} has: {', '.join(fields)}"
+                    return here, f"no such field ({hint})"
+                if isinstance(node, dict):  # a free-form mapping (vehicle.overrides, ...): any key
+                    return None
+                if isinstance(node, list):
+                    if part.isdigit() and int(part) < len(node):
+                        node = node[int(part)]
+                        continue
+                    where_list = ".".join(parts[:i])
+                    return here, f"no such element ({where_list} has {len(node)}: 0..{len(node) - 1})"
+                return here, f"{'.'.join(parts[:i])} is a value, not a section: set it whole"
+            return None
+
+        flat: dict[tuple[str, ...], Any] = {}
+        for key, value in {**dict(changes or {}), **more}.items():
+            parts = tuple(str(key).replace("__", ".").split("."))
+            if not all(parts):
+                raise MissionError(label, str(key), "not a field path (parts joined by . or __)")
+            flatten(parts, value, flat)
+
         base = self
-        if "controller.type" in changes:
-            changes = dict(changes)
-            base = self.with_controller(str(changes.pop("controller.type")))
+        if ("controller", "type") in flat:
+            spec = flat.pop(("controller", "type"))
+            try:
+                base = self.with_controller(str(spec))
+            except ValueError as e:
+                raise MissionError(label, "controller.type", str(e)) from None
+        for parts in flat:
+            bad = problem_at(base, parts)
+            if bad is not None:
+                raise MissionError(label, *bad)
+        for parts, other in alternatives.items():
+            if flat.get(parts) is not None and other not in flat:
+                flat[other] = None
+
         data = base.resolved()
-        for path, value in changes.items():
-            node = data
-            keys = path.split(".")
-            for k in keys[:-1]:
-                node = node[k]
-            node[keys[-1]] = value
-        m = Mission.model_validate(data)
+        for parts, value in flat.items():
+            node: Any = data
+            for k in parts[:-1]:
+                node = node[int(k)] if isinstance(node, list) else node.setdefault(k, {})
+            last = parts[-1]
+            node[int(last) if isinstance(node, list) else last] = value
+        try:
+            m = Mission.model_validate(data)
+        except ValidationError as e:
+            raise MissionError(label, *first_error(Mission, e)) from None
         m._source = self._source
+        if any(p[0] == "vehicle" or p[:2] == ("controller", "weights") for p in flat) or base is not self:
+            try:
+                n = m.build_vehicle().n_thrusters
+            except VehicleParamsError as e:
+                field = "vehicle" if e.field == "vehicle" else f"vehicle.{e.field}"
+                raise MissionError(label, field, e.message) from None
+            try:
+                m.controller.weights.R_for(n)
+            except ValueError as e:
+                raise MissionError(label, "controller.weights.R", str(e)) from None
         return m
 
 
@@ -571,19 +728,44 @@ def parse_mission(data: Any, source: str | Path = "<mission>") -> Mission:
         m.controller.weights.R_for(n)
     except ValueError as e:
         raise MissionError(source, "controller.weights.R", f"{e} ({m.build_vehicle().name})") from None
+    if m.simulation.actuators == "ardusub" and n != 8:
+        raise MissionError(
+            source,
+            "simulation.actuators",
+            f"ardusub: ArduSub's VECTORED_6DOF mixer drives 8 thrusters; {m.build_vehicle().name} has {n} "
+            "(use ideal)",
+        )
     return m
 
 
 def load_mission(path: str | Path) -> Mission:
-    """Read and validate a mission file.
+    """Read and validate a mission file, or a shipped mission by name.
+
+    Parameters
+    ----------
+    path : str or Path
+        A mission file, or the name of a mission shipped with auvdock (``"gyre"``,
+        ``"tank_0p6hz"``; ``auvdock missions`` lists them).  An existing file wins over a
+        shipped name (:func:`auvdock.config.catalog.resolve`).
+
+    Returns
+    -------
+    Mission
+        The validated mission; its ``source`` is the file it was read from.
 
     Raises
     ------
     MissionError
         On a missing file, a YAML syntax error or any invalid field; ``str(err)`` is one
-        line: ``<file>: <field.path>: <problem>``.
+        line: ``<file>: <field.path>: <problem>``.  A bare name that is neither a file nor
+        a shipped mission says so and lists the shipped ones.
     """
-    p = Path(path)
+    from auvdock.config.catalog import resolve, shipped_missions
+
+    p = resolve(path)
+    if not p.exists() and p.parent == Path(".") and p.suffix != ".yaml":
+        known = ", ".join(f.name for f in shipped_missions())
+        raise MissionError(p, "", f"file not found, nor a shipped mission (shipped: {known})")
     data, _ = read_yaml_file(p)
     return parse_mission(data, p)
 

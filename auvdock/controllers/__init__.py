@@ -3,7 +3,7 @@
 ================================  ======================================================
 module                            what it holds
 ================================  ======================================================
-:mod:`~.base`                     Measurement, ControlOutput, Plan, the Controller protocol
+:mod:`~.base`                     Estimate, ControlOutput, Plan, the Controller protocol
 :mod:`~.status`                   step outcome codes
 :mod:`~.settings`                 settings every MPC shares (horizon, weights, bounds, solver)
 :mod:`~.mpc`                      the MPC of eq. (10) (DockingMPC), built once per run
@@ -14,13 +14,13 @@ module                            what it holds
 :mod:`~.registry`                 every controller (CONTROLLERS), build_controller
 ================================  ======================================================
 
-Every controller has ``step(meas, u_prev) -> ControlOutput`` and is driven by
+Every controller has ``step(estimate, u_prev) -> ControlOutput`` and is driven by
 :class:`auvdock.loop.autopilot.Autopilot`.
 """
 
 from __future__ import annotations
 
-from auvdock.controllers.base import Controller, ControlOutput, Measurement, Plan
+from auvdock.controllers.base import Controller, ControlOutput, Estimate, Plan
 from auvdock.controllers.registry import (
     CONTROLLERS,
     ControllerEntry,
@@ -35,7 +35,7 @@ from auvdock.controllers.registry import (
 from auvdock.controllers.solvers import SOLVERS, solver_names
 
 __all__ = [
-    "Measurement",
+    "Estimate",
     "ControlOutput",
     "Plan",
     "Controller",

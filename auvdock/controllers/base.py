@@ -1,5 +1,5 @@
-"""Types shared by every controller: what goes in (:class:`Measurement`), what comes out
-(:class:`ControlOutput`) and the :class:`Controller` protocol."""
+"""Types shared by every controller: what goes in (:class:`~auvdock.estimation.estimate.Estimate`,
+the estimation stage's), what comes out (:class:`ControlOutput`) and the :class:`Controller` protocol."""
 
 from __future__ import annotations
 
@@ -8,37 +8,9 @@ from typing import Any, Protocol
 
 import numpy as np
 
-__all__ = ["Measurement", "ControlOutput", "Plan", "Controller"]
+from auvdock.estimation.estimate import Estimate
 
-
-@dataclass
-class Measurement:
-    """What the vehicle knows at one control instant.
-
-    Attributes
-    ----------
-    t : float
-        Time, s (mission clock: 0 at the start).
-    state : ndarray (12,)
-        Vehicle state (Assumption 1): NED position (m), ZYX Euler angles (rad), body
-        velocity over ground (m/s) and angular rate (rad/s); :mod:`auvdock.vehicle.state`.
-    flow_ned : ndarray (3,) or None
-        True water velocity at the vehicle, NED (m/s), where an exteroceptive sensor gives
-        it (Assumption 3; simulation only).  Used by Kinematic and Oracle MPC only.
-    sensors : dict
-        Raw readings for the estimators: ``pose`` (6,), ``gyro_rad_s`` (3,),
-        ``relative_velocity_m_s`` (3,), ``accel_m_s2`` (3,), ``depth_rate_m_s`` (scalar).
-    readings : list
-        The sensor suite's readings delivered since the last step
-        (:class:`auvdock.estimation.navigation_filter.Reading`), for the navigation filter
-        (``estimation: filter``); ``state`` is then not used by the controller.
-    """
-
-    t: float
-    state: np.ndarray
-    flow_ned: np.ndarray | None = None
-    sensors: dict[str, np.ndarray] = field(default_factory=dict)
-    readings: list[Any] = field(default_factory=list)
+__all__ = ["Estimate", "ControlOutput", "Plan", "Controller"]
 
 
 @dataclass
@@ -89,8 +61,9 @@ class Controller(Protocol):
     #: Extra per-step series it records: name -> per-row shape.
     extra_series: dict[str, tuple[int, ...]]
 
-    def step(self, meas: Measurement, u_prev: np.ndarray) -> ControlOutput:
-        """One control step from a measurement; ``u_prev`` (n,) the thrust applied last (N)."""
+    def step(self, est: Estimate, u_prev: np.ndarray) -> ControlOutput:
+        """One control step from the estimation stage's estimate; ``u_prev`` (n,) the thrust
+        commanded last (N)."""
         ...
 
     def reset(self) -> None:

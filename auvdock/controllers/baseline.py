@@ -15,7 +15,7 @@ from typing import Literal
 
 import numpy as np
 
-from auvdock.controllers.base import ControlOutput, Measurement, Plan
+from auvdock.controllers.base import ControlOutput, Estimate, Plan
 from auvdock.controllers.mpc import DockingMPC
 from auvdock.controllers.settings import MPCSettings
 from auvdock.vehicle import Vehicle
@@ -100,8 +100,8 @@ class BaselineMPC:
     def reset(self) -> None:
         self.mpc.reset()
 
-    def step(self, meas: Measurement, u_prev: np.ndarray) -> ControlOutput:
-        if self.needs_true_flow and meas.flow_ned is None:
+    def step(self, est: Estimate, u_prev: np.ndarray) -> ControlOutput:
+        if self.needs_true_flow and est.flow_ned is None:
             raise ValueError(f"{self.name} MPC needs the true flow at the vehicle (Assumption 3)")
-        r = self.mpc.solve(meas.t, meas.state, u_prev, None if self.name == "naive" else meas.flow_ned)
+        r = self.mpc.solve(est.t, est.state, u_prev, None if self.name == "naive" else est.flow_ned)
         return ControlOutput(r.thrust, r.status, r.solve_time_s, Plan(r.plan_state, r.plan_thrust))

@@ -51,7 +51,7 @@ import numpy as np
 from pydantic import Field
 
 from auvdock.config.schema import Vec6Pos
-from auvdock.controllers.base import ControlOutput, Measurement, Plan
+from auvdock.controllers.base import ControlOutput, Estimate, Plan
 from auvdock.controllers.baseline import build_mpc
 from auvdock.controllers.rti import QRQP_OPTIONS
 from auvdock.controllers.settings import MPCSettings
@@ -65,7 +65,7 @@ from auvdock.runtime import timing
 from auvdock.runtime.codegen import compiled_function, compiled_nlpsol
 from auvdock.runtime.fastcall import BufferedFunction
 from auvdock.runtime.interrupts import SigintDeferred
-from auvdock.sensing.sensors import SensorSettings
+from auvdock.sensing.settings import SensorSettings
 from auvdock.vehicle import Vehicle
 from auvdock.vehicle.state import ANG, ATT, ETA
 from auvdock.world.dock import HeaveDock
@@ -338,17 +338,16 @@ class FSEMPC:
         if self.law is not None:
             self.law.reset()
 
-    def step(self, meas: Measurement, u_prev: np.ndarray) -> ControlOutput:
-        s = meas.sensors
-        eta = np.asarray(s["pose"], dtype=float)
+    def step(self, meas: Estimate, u_prev: np.ndarray) -> ControlOutput:
+        s = meas.flow_sensing
+        if s is None:
+            raise ValueError(f"{self.name}: the estimate carries no flow sensing (paper IV.A)")
+        eta = np.asarray(s.pose, dtype=float)
         nu_r = np.concatenate(
-            [np.asarray(s["relative_velocity_m_s"], dtype=float), np.asarray(s["gyro_rad_s"], dtype=float)]
+            [np.asarray(s.relative_velocity_m_s, dtype=float), np.asarray(s.gyro_rad_s, dtype=float)]
         )
-        depth_rate = s.get("depth_rate_m_s")
         with timing.part("flow filter"):
-            est = self.estimator.step(
-                eta, nu_r, s.get("accel_m_s2"), None if depth_rate is None else float(depth_rate), u_prev
-            )
+            est = self.estimator.step(eta, nu_r, s.accel_m_s2, float(s.depth_rate_m_s), u_prev)
         tau = np.zeros(6)
         t0 = time.perf_counter()
         # the estimator's state is [eta; nu_r + f; nu_2] (ETA, LIN, ANG)

@@ -57,10 +57,11 @@ from auvdock.estimation.flow_filter import chi2_quantile
 from auvdock.runtime.codegen import compiled_function
 from auvdock.runtime.fastcall import BufferedFunction
 from auvdock.sensing import measurements
+from auvdock.sensing.readings import Reading
 from auvdock.vehicle.model import rk4
 from auvdock.vehicle.state import ANG, ATT, LIN, NX, POS, YAW
 
-__all__ = ["NavigationSettings", "Reading", "NavEstimate", "NavigationFilter", "NZ"]
+__all__ = ["NavigationSettings", "NavEstimate", "NavigationFilter", "NZ"]
 
 #: Filter state dimension: vehicle state (12), horizontal current (2), accelerometer and gyro biases (3 + 3).
 NZ = NX + 8
@@ -188,21 +189,6 @@ class NavigationSettings(Strict):
         s[LIN] = self.prior_velocity_std_m_s
         s[ANG] = self.prior_rate_std_rad_s
         return s
-
-
-@dataclass
-class Reading:
-    """One sensor reading.
-
-    ``kind``: a key of :data:`auvdock.sensing.measurements.KINDS`; ``t``: sample time, s; ``value``
-    (``KINDS[kind]``,) in the kind's units; ``std`` (same shape, or a scalar): the noise
-    standard deviation of each component.
-    """
-
-    kind: str
-    t: float
-    value: np.ndarray
-    std: np.ndarray
 
 
 @dataclass

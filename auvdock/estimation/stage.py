@@ -1,43 +1,61 @@
-"""The state-estimation stage between the sensors and the controllers.
+"""The estimation stage between the sensors and the controllers: readings in, an :class:`Estimate` out.
 
-``estimation: truth`` (the paper's Assumption 1): the controllers get the state the
-measurement carries.  ``estimation: filter``: :class:`NavigationStage` runs the navigation
-filter (:mod:`auvdock.estimation.navigation_filter`) on the sensor suite's readings and the thrust commanded
-over the last period, and hands every controller the same estimate:
+Every closed loop hands the stage one instant's :class:`~auvdock.sensing.readings.Readings`
+and hands every controller the stage's :class:`~auvdock.estimation.estimate.Estimate`; no
+controller reads a sensor.  Two stages, chosen by the mission's ``estimation``
+(:func:`build_estimation`):
 
-* ``state``: the filter's state (12), over-ground body velocity;
-* ``sensors`` for the FSE controllers' flow filter (paper IV.A, whose gramian stays): the
-  pose, the angular rate, the velocity through the water ``nu_1 - R^T v_c`` with the filter's
-  current, the mean acceleration over the last period and the depth rate ``e3^T R nu_1``:
-  never the true flow, never the mission's flow model.  The mean acceleration is the one
-  model's prediction over the last period from the previous estimate, with the thrust
-  applied and the stage's current, ``(nu_1_pred - nu_1_prev) / dt`` (gravity-free, as that
-  filter's measurement model expects).  The change of the *estimate* itself is no
-  accelerometer: it carries every correction of the filter (a position fix moving the
-  velocity by centimetres per second reads as metres per second squared), which that
-  filter, trusting an accelerometer's 0.0045 m/s^2, turned into a drifting current
-  (measured in a loopback flight: its estimate 0.1 m/s off and moving while the stage's
-  was within 0.01 m/s);
-* ``series`` to record: ``estimated_state`` (12), ``estimated_flow_ned_m_s`` (3),
-  ``estimated_state_std`` (12).
+* :class:`TruthStage` (``estimation: truth``, the paper's Assumption 1): the state the
+  readings carry (the truth in simulation, the autopilot's estimate on a vehicle) and the
+  paper's simulated sensing of ``[eta; nu_r]`` for the FSE flow filter, passed on as they are.
+* :class:`NavigationStage` (``estimation: filter``): the navigation filter
+  (:mod:`auvdock.estimation.navigation_filter`) on the sensor suite's readings and the thrust
+  really applied over the last period, and every controller gets the same estimate:
 
-The same stage runs wherever the readings come from (``sim`` here; the vehicle's telemetry
-mapped to the same readings on a vehicle).
+  - ``state``: the filter's state (12), over-ground body velocity, with its covariance;
+  - ``flow_sensing`` for the FSE controllers' flow filter (paper IV.A, whose gramian stays):
+    the pose, the angular rate, the velocity through the water ``nu_1 - R^T v_c`` with the
+    filter's current, the mean acceleration over the last period and the depth rate
+    ``e3^T R nu_1``: never the true flow, never the mission's flow model.  The mean
+    acceleration is the one model's prediction over the last period from the previous
+    estimate, with the thrust applied and the stage's current, ``(nu_1_pred - nu_1_prev) /
+    dt`` (gravity-free, as that filter's measurement model expects).  The change of the
+    *estimate* itself is no accelerometer: it carries every correction of the filter (a
+    position fix moving the velocity by centimetres per second reads as metres per second
+    squared), which that filter, trusting an accelerometer's 0.0045 m/s^2, turned into a
+    drifting current (measured in a loopback flight: its estimate 0.1 m/s off and moving
+    while the stage's was within 0.01 m/s);
+  - ``series`` to record: ``estimated_state`` (12), ``estimated_flow_ned_m_s`` (3),
+    ``estimated_state_std`` (12).
+
+The same stages run wherever the readings come from (``sim``, ``fly``, ``replay``).
 """
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Protocol
 
 import casadi as ca
 import numpy as np
 
-from auvdock.controllers.base import Measurement
+from auvdock.estimation.estimate import Estimate
 from auvdock.estimation.navigation_filter import NavEstimate, NavigationFilter, NavigationSettings
+from auvdock.sensing.readings import FlowSensing, Readings
 from auvdock.vehicle.model import rk4
 from auvdock.vehicle.state import ANG, ATT, ETA, LIN, NX
 
-__all__ = ["ESTIMATION_MODES", "ESTIMATION_SERIES", "NavigationStage"]
+if TYPE_CHECKING:
+    from auvdock.config.mission import Mission
+    from auvdock.vehicle import Vehicle
+
+__all__ = [
+    "ESTIMATION_MODES",
+    "ESTIMATION_SERIES",
+    "EstimationStage",
+    "TruthStage",
+    "NavigationStage",
+    "build_estimation",
+]
 
 #: ``estimation:`` values.
 ESTIMATION_MODES = ("truth", "filter")
@@ -48,6 +66,59 @@ ESTIMATION_SERIES: dict[str, tuple[int, ...]] = {
     "estimated_state_std": (NX,),
     "estimated_flow_ned_m_s": (3,),
 }
+
+
+class EstimationStage(Protocol):
+    """What every estimation stage offers."""
+
+    #: ``estimation:`` value it implements.
+    mode: str
+    #: Per-step series it records: name -> per-row shape.
+    series_shapes: dict[str, tuple[int, ...]]
+
+    def reset(self) -> None:
+        """Start a new run."""
+        ...
+
+    def settling(self, t: float) -> bool:
+        """Whether the controllers should still hold zero thrust at time ``t`` (s)."""
+        ...
+
+    def step(self, readings: Readings, u_applied: np.ndarray) -> tuple[Estimate, dict[str, np.ndarray]]:
+        """The estimate from one instant's readings and the thrust (n,, N) really applied over
+        the last period; and the series to record."""
+        ...
+
+
+class TruthStage:
+    """``estimation: truth`` (the paper's Assumption 1): the state and the paper's sensing as given.
+
+    The readings must carry ``state`` (a source that has none, such as a vehicle's telemetry
+    without the autopilot's estimate, cannot run this stage).
+    """
+
+    mode = "truth"
+    series_shapes: dict[str, tuple[int, ...]] = {}
+
+    def reset(self) -> None:
+        """Nothing to forget."""
+
+    def settling(self, t: float) -> bool:
+        """Never: the state is known from the first instant."""
+        return False
+
+    def step(self, readings: Readings, u_applied: np.ndarray) -> tuple[Estimate, dict[str, np.ndarray]]:
+        """The state and the flow sensing the readings carry; nothing to record."""
+        if readings.state is None:
+            raise ValueError("estimation: truth needs the state in the readings (Assumption 1)")
+        est = Estimate(
+            readings.t,
+            np.asarray(readings.state, dtype=float).copy(),
+            None,
+            readings.flow_ned,
+            readings.flow_sensing,
+        )
+        return est, {}
 
 
 class NavigationStage:
@@ -66,8 +137,11 @@ class NavigationStage:
         frame); the filter's prior is centred on it.
     """
 
+    mode = "filter"
+    series_shapes = ESTIMATION_SERIES
+
     def __init__(
-        self, settings: NavigationSettings, vehicle: Any, dt: float, start_guess: np.ndarray
+        self, settings: NavigationSettings, vehicle: Vehicle, dt: float, start_guess: np.ndarray
     ) -> None:
         self.filter = NavigationFilter(settings, vehicle, dt)
         self.settle_s = float(settings.settle_s)
@@ -96,30 +170,48 @@ class NavigationStage:
         has run for less than ``navigation.settle_s`` since the first reading."""
         return self._t0 is not None and t < self._t0 + self.settle_s
 
-    def step(self, meas: Measurement, u_prev: np.ndarray) -> tuple[Measurement, dict[str, np.ndarray]]:
-        """The controllers' measurement from this step's readings, and the series to record."""
+    def step(self, readings: Readings, u_applied: np.ndarray) -> tuple[Estimate, dict[str, np.ndarray]]:
+        """The controllers' estimate from this instant's readings (``readings.suite``) and the
+        thrust (n,, N) really applied over the last period; and the series to record."""
         if self._t0 is None:
-            self._t0 = float(meas.t)
-        est = self.filter.step(meas.t, list(meas.readings), u_prev)
+            self._t0 = float(readings.t)
+        est = self.filter.step(readings.t, list(readings.suite), u_applied)
         self.last = est
         x = np.asarray(est.state, dtype=float)
         R = self._rot(x[ATT])
         lin = x[LIN]
-        sensors: dict[str, np.ndarray] = {
-            "pose": x[ETA].copy(),
-            "gyro_rad_s": x[ANG].copy(),
-            "relative_velocity_m_s": lin - R.T @ np.asarray(est.flow_ned, dtype=float),
-            "depth_rate_m_s": np.asarray(float(R[2] @ lin)),
-        }
+        flow_ned = np.asarray(est.flow_ned, dtype=float)
+        accel = None
         if self._prev is not None:
             x_prev, flow_prev = self._prev
-            pred = np.asarray(self._predict(x_prev, u_prev, flow_prev)).ravel()
-            sensors["accel_m_s2"] = (pred[LIN] - x_prev[LIN]) / self.dt
-        self._prev = (x.copy(), np.asarray(est.flow_ned, dtype=float).copy())
-        out = Measurement(meas.t, x.copy(), meas.flow_ned, sensors, [])
+            pred = np.asarray(self._predict(x_prev, u_applied, flow_prev)).ravel()
+            accel = (pred[LIN] - x_prev[LIN]) / self.dt
+        self._prev = (x.copy(), flow_ned.copy())
+        sensing = FlowSensing(
+            pose=x[ETA].copy(),
+            gyro_rad_s=x[ANG].copy(),
+            relative_velocity_m_s=lin - R.T @ flow_ned,
+            depth_rate_m_s=float(R[2] @ lin),
+            accel_m_s2=accel,
+        )
+        out = Estimate(
+            readings.t,
+            x.copy(),
+            np.asarray(est.state_cov, dtype=float)[:NX, :NX].copy(),
+            readings.flow_ned,
+            sensing,
+            flow_ned.copy(),
+        )
         series = {
             "estimated_state": x.copy(),
             "estimated_state_std": np.sqrt(np.clip(np.diag(est.state_cov), 0.0, None)),
-            "estimated_flow_ned_m_s": np.asarray(est.flow_ned, dtype=float).copy(),
+            "estimated_flow_ned_m_s": flow_ned.copy(),
         }
         return out, series
+
+
+def build_estimation(mission: Mission, vehicle: Vehicle) -> EstimationStage:
+    """The estimation stage a mission's ``estimation`` names (one of :data:`ESTIMATION_MODES`)."""
+    if mission.estimation == "filter":
+        return NavigationStage(mission.navigation, vehicle, mission.controller.dt_s, mission.start_state())
+    return TruthStage()

@@ -57,10 +57,13 @@ and the results file is always closed readable.
 from __future__ import annotations
 
 import collections
+import contextlib
 import dataclasses
 import json
 import signal
 import threading
+import time
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -69,13 +72,13 @@ import numpy as np
 from pymavlink import mavutil
 
 from auvdock.config.mission import Mission, MissionError
-from auvdock.controllers import Measurement
 from auvdock.controllers.hold import DepthAttitudeHold
 from auvdock.controllers.registry import CONTROLLERS, split_controller
-from auvdock.controllers.status import FAILURE_CODES, STATUS_NAMES, STATUS_NO_STEP
+from auvdock.controllers.status import FAILURE_CODES, STATUS_NAMES
 from auvdock.fly.camera import CAMERA_SERIES, CameraOpenError, CameraTracking
 from auvdock.fly.conformance import PARAMETER_GROUPS, check_parameters, describe, parameter_names
 from auvdock.fly.link import PILOT_INPUT_TYPES, LinkError, MavlinkLink
+from auvdock.fly.plant import MavlinkPlant
 from auvdock.fly.record import FlyRecorder
 from auvdock.fly.telemetry import (
     PRESSURE_PARAMETERS,
@@ -84,16 +87,13 @@ from auvdock.fly.telemetry import (
     geofence_violation,
 )
 from auvdock.loop.autopilot import build_autopilot
+from auvdock.loop.closed_loop import LoopResult, run_closed_loop
+from auvdock.loop.closed_loop import Progress as LoopProgress
 from auvdock.runtime.clock import Clock
 from auvdock.runtime.interrupts import SigintDeferred
 from auvdock.runtime.stderr_capture import StderrCapture
-from auvdock.vehicle.ardusub import (
-    MODES,
-    NEUTRAL_CHANNELS,
-    channels_for_thrust,
-    channels_for_wrench,
-    thrust_from_channels,
-)
+from auvdock.vehicle.actuators import ArduSubActuators
+from auvdock.vehicle.ardusub import MODES, NEUTRAL_CHANNELS
 from auvdock.vehicle.geometry import rotation_zyx
 from auvdock.vehicle.state import ATT, POS
 from auvdock.world.dock import HeaveDock, TrackedDock
@@ -251,6 +251,7 @@ class FlySession:
         self._now_us = 0
         self._failed_solves = 0
         self._rec: FlyRecorder | None = None
+        self._loop_t0 = time.perf_counter()
         self._we_armed = False
         self._last_target: int | None = None
         self._t_end = 0.0
@@ -305,6 +306,7 @@ class FlySession:
             mission.build_camera()  # a missing or bad camera file is a mission error, before connecting
         self.flow = mission.build_flow()
         self.autopilot = build_autopilot(mission, self.vehicle, self.dock, controller)
+        self.actuators = ArduSubActuators(self.vehicle)  # what fly sends: ArduSub's channel path
 
     # ------------------------------------------------------------------------------------
     def run(self, progress=None, on_event=None) -> FlyResult:
@@ -696,14 +698,14 @@ class FlySession:
 
     def _open_results(self) -> None:
         m = self.mission
+        self._plant = MavlinkPlant(self, CAMERA_SERIES if self.camera is not None else {})
         self._rec = FlyRecorder(
             self.out,
             mission=m,
             autopilot=self.autopilot,
             vehicle=self.vehicle,
-            flow=self.flow,
             dock=self.dock,
-            extra_series=CAMERA_SERIES if self.camera is not None else {},
+            plant_columns=self._plant.columns,
             attrs={
                 "tolerance_m": m.docking.tolerance_m,
                 "timeout_s": self.timeout_s,
@@ -713,6 +715,7 @@ class FlySession:
                 "solver": self.autopilot.solver,
                 "reads_true_flow": self.autopilot.reads_true_flow,
                 "estimation": m.estimation,
+                "actuators": "ardusub: RC override channels through the vehicle's own mixer",
                 # the map from the autopilot's NED frame to the mission's (MissionFrame)
                 "frame_heading_offset_rad": self._frame.dpsi,
                 "frame_vehicle_start_m": self._frame.p_vehicle0,
@@ -721,116 +724,41 @@ class FlySession:
             },
         )
         self._rec.open()
+        self._loop_t0 = time.perf_counter()
 
     # -- the loop -------------------------------------------------------------------------
     def _control_loop(self) -> _Ending:
-        """A step every dt on the clock until an ending (docked) or the timeout."""
-        t_start = self.clock.now()
-        k = 0
-        while (t := k * self.dt) <= self.timeout_s + 1e-9:
-            self.clock.sleep_until(t_start + t)
-            ending = self._step(t, k)
-            if ending is not None:
-                return ending
-            k += 1
-        return _Ending("timeout", f"not docked within {self.timeout_s:g} s", t_end=self._t_end)
-
-    def _step(self, t: float, k: int) -> _Ending | None:
-        """Control step ``k`` at mission time ``t``; an ending (docked) or None."""
-        self._now_us = self._take_telemetry("auvd_step", k)
-        self._check_takeover()
-        self._check_limits()
-        self._refresh_rates()
-        if self._check_telemetry():
-            return None
-        x = self._state()
-        self._check_geofence()
-        camera_series: dict[str, np.ndarray] = {}
-        if self.camera is not None:
-            self.camera.record_pose(t, x)
-            steer, camera_series = self._camera_step(t)
-            if not steer:  # no dock to steer to: hold depth and attitude, recorded
-                self._hold(t, x, camera_series)
-                return None
-            self.hold.stop()
-        if self.mission.dock.source == "mavlink":
-            self._check_landing_target(t, x)
-        dist = float(np.linalg.norm(x[POS] - self.dock.position(t)))
-        if dist <= self.mission.docking.tolerance_m:
-            self._rec.distances.append(dist)
-            self._rec.held(  # the state in which docking is declared, as sim records it
-                t,
-                x,
-                channels=NEUTRAL_CHANNELS,
-                telemetry=self._telemetry(),
-                series=camera_series,
-                status=STATUS_NO_STEP,
-            )
-            return _Ending("docked", f"docked at t = {t:.2f} s", docked=True, contact=x.copy(), t_end=t)
-        self._control(t, x, dist, camera_series)
-        return None
-
-    def _control(self, t: float, x: np.ndarray, dist: float, camera_series: dict[str, np.ndarray]) -> None:
-        """The controller-and-estimator step on the sensor readings, its thrust as RC overrides,
-        one results row.  The mission's flow model is handed on as a forecast; the Autopilot
-        strips it for every controller whose definition does not read it."""
-        v_c = self.flow.velocity(x[POS], t)
-        readings = self.telemetry.readings(t, self._now_us)
-        f_b = self.telemetry.specific_force
-        # a whole controller step (CasADi may swallow a KeyboardInterrupt); what its C code prints
-        # is counted and recorded, not shown per step
-        with SigintDeferred(), self._stderr.capture():
-            out = self.autopilot.step(Measurement(t=t, state=x, flow_ned=v_c, readings=readings))
-        channels = channels_for_thrust(out.thrust, self.vehicle.allocation, self.vehicle.thruster_curve)
-        telemetry = self._telemetry()
-        if self.arm_vehicle:
-            self._send_channels(channels)
-        else:
-            self._send_neutral()
-        # what the thrusters will really push (ArduSub's channel path; nothing while disarmed)
-        sent = channels if self.arm_vehicle else NEUTRAL_CHANNELS
-        curve, n = self.vehicle.thruster_curve, self.vehicle.n_thrusters
-        applied = thrust_from_channels(sent, curve) if telemetry["armed"] else np.zeros(n)
-        self.autopilot.set_applied(applied)
-        series = dict(out.series)
-        if "flow_body_true_m_s" in self.autopilot.extra_series:  # unknown on a vehicle
-            series["flow_body_true_m_s"] = np.full(3, np.nan)
-        self._rec.flown(
-            t,
-            x,
-            dist,
-            out,
-            channels=channels if self.arm_vehicle else NEUTRAL_CHANNELS,
-            specific_force=f_b,
-            telemetry=telemetry,
-            series={**series, **camera_series},
-        )
-        self._t_end = t
-        self._check_solves(out.status)
+        """The one closed loop (:func:`auvdock.loop.closed_loop.run_closed_loop`) on this vehicle:
+        a step every dt on the session's clock until docked, the timeout or an abort."""
+        assert self._rec is not None
+        progress = None
         if self._progress is not None:
-            self._progress(t, dist, STATUS_NAMES.get(out.status, str(out.status)))
+            user = self._progress
 
-    def _hold(self, t: float, x: np.ndarray, camera_series: dict[str, np.ndarray]) -> None:
-        """No dock to steer to (camera searching or holding): hold depth and attitude
-        (:class:`auvdock.controllers.hold.DepthAttitudeHold`), recorded as a held row."""
-        if not self.hold.active:
-            self.hold.start(x)
-            self._event(
-                f"holding depth {x[2]:.2f} m and heading {np.degrees(x[5]):.1f} deg until the dock is seen"
-            )
-        channels = NEUTRAL_CHANNELS
-        if self.arm_vehicle:
-            channels = channels_for_wrench(
-                self.hold.wrench(x), self.vehicle.allocation, curve=self.vehicle.thruster_curve
-            )
-            self._send_channels(channels)
-        else:
-            self._send_neutral()
-        telemetry = self._telemetry()
-        armed = telemetry["armed"]
-        curve = self.vehicle.thruster_curve
-        thrust = thrust_from_channels(channels, curve) if armed else np.zeros(self.vehicle.n_thrusters)
-        self._rec.held(t, x, channels=channels, telemetry=telemetry, series=camera_series, thrust=thrust)
+            def progress(p: LoopProgress) -> None:
+                user(p.t, p.distance_m, STATUS_NAMES.get(p.status, str(p.status)))
+
+        @contextlib.contextmanager
+        def quiet() -> Iterator[None]:  # what CasADi's C code prints is counted, not shown per step
+            with self._stderr.capture():
+                yield
+
+        result = run_closed_loop(
+            plant=self._plant,
+            autopilot=self.autopilot,
+            actuators=self.actuators,
+            recorder=self._rec.loop,
+            dock=self.dock,
+            tolerance_m=self.mission.docking.tolerance_m,
+            timeout_s=self.timeout_s,
+            hold=self.hold,
+            progress=progress,
+            on_event=self._event,
+            control_guard=quiet,
+        )
+        return _Ending(
+            result.reason, result.message, docked=result.docked, contact=result.contact, t_end=result.t_end
+        )
 
     # -- safety checks --------------------------------------------------------------------
     def _check_takeover(self) -> None:
@@ -888,8 +816,7 @@ class FlySession:
         if stale > fly.stale_abort_s:
             names = [n for n, age in self.telemetry.ages(self._now_us).items() if age > fly.stale_abort_s]
             raise FlyAbortError(f"telemetry lost: no {', '.join(names)} for {stale:.1f} s")
-        if stale > fly.stale_neutral_s:
-            self._send_neutral()
+        if stale > fly.stale_neutral_s:  # (the loop sends neutral)
             if not self.events or not self.events[-1][1].startswith("telemetry stale"):
                 self._event(f"telemetry stale ({stale:.2f} s): neutral")
             return True
@@ -1013,12 +940,18 @@ class FlySession:
         self._event(f"end: {ending.reason}: {ending.message}")
         outcome: dict[str, Any] = {}
         if rec is not None and rec.writer is not None:
+            result = LoopResult(
+                ending.reason,
+                ending.message,
+                ending.t_end,
+                ending.docked,
+                ending.contact,
+                time.perf_counter() - self._loop_t0,
+            )
             outcome = rec.outcome(
                 ending.reason,
                 ending.message,
-                docked=ending.docked,
-                contact=ending.contact,
-                t_end=ending.t_end,
+                result=result,
                 extra={
                     "events_json": rec.events_json(self.events),
                     "armed_by_us": self._we_armed,

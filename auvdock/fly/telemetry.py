@@ -8,7 +8,7 @@ pose (a translation and a rotation about down), and every later reading through 
 map.
 
 :class:`TelemetrySensors` is the third source of the one sensor interface (beside the
-simulated suite, :class:`auvdock.sensing.sensors.SensorSuite`): fed the vehicle's messages as they
+simulated suite, :class:`auvdock.sensing.simulated.SensorSuite`): fed the vehicle's messages as they
 were received, it gives, per control step, the :class:`auvdock.estimation.navigation_filter.Reading` s of the
 messages that are new since the last step, one definition per measurement kind
 (:mod:`auvdock.sensing.measurements`):
@@ -43,7 +43,6 @@ from typing import Any
 
 import numpy as np
 
-from auvdock.estimation.navigation_filter import Reading
 from auvdock.fly.units import (
     ACCEL_LSB_STD_M_S2,
     ATMOSPHERE_HPA,
@@ -53,7 +52,8 @@ from auvdock.fly.units import (
     WATER_DENSITY,
     depth_from_pressure,
 )
-from auvdock.sensing.sensors import SensorSettings
+from auvdock.sensing.readings import Reading
+from auvdock.sensing.settings import SensorSettings
 from auvdock.vehicle.geometry import Rz, rotation_zyx, wrap_angle
 
 __all__ = [

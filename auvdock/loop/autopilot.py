@@ -1,8 +1,11 @@
-"""The one controller-and-estimator step that serves ``sim``, ``compare``, ``sweep`` and ``fly``.
+"""The one estimation-and-control step that serves every command: readings in, thrust out.
 
-Only where measurements come from (the truth simulator or the vehicle's telemetry) and
-where thrust commands go (the simulator or MAVLink) differ between them; everything in
-between is :meth:`Autopilot.step`.  :func:`build_autopilot` builds it from a mission.
+:meth:`Autopilot.step` runs the estimation stage (:mod:`auvdock.estimation.stage`) on one
+instant's :class:`~auvdock.sensing.readings.Readings` and the controller on its
+:class:`~auvdock.estimation.estimate.Estimate`.  Where the readings come from (the simulated
+sensors or a vehicle's telemetry) and where the thrust goes (the actuator path into the truth
+model or MAVLink) are the closed loop's business (:mod:`auvdock.loop.closed_loop`).
+:func:`build_autopilot` builds the step from a mission.
 """
 
 from __future__ import annotations
@@ -13,21 +16,22 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from auvdock.config.mission import Mission
-from auvdock.controllers import Controller, ControlOutput, Measurement, build_controller, resolve_solver
+from auvdock.controllers import Controller, ControlOutput, build_controller, resolve_solver
 from auvdock.controllers.registry import CONTROLLERS
 from auvdock.controllers.settings import MPCSettings
 from auvdock.controllers.status import STATUS_SETTLING
 from auvdock.estimation.flow_filter import EstimatorSettings
+from auvdock.estimation.stage import EstimationStage, TruthStage, build_estimation
 from auvdock.runtime import timing
 from auvdock.runtime.interrupts import SigintDeferred
-from auvdock.sensing.sensors import SensorSettings
-from auvdock.world.dock import HeaveDock
-
-if TYPE_CHECKING:
-    from auvdock.estimation.stage import NavigationStage
+from auvdock.sensing.readings import Readings
+from auvdock.sensing.settings import SensorSettings
 from auvdock.vehicle import Vehicle
 
-__all__ = ["Measurement", "Autopilot", "build_autopilot"]
+if TYPE_CHECKING:
+    from auvdock.world.dock import HeaveDock
+
+__all__ = ["Autopilot", "build_autopilot"]
 
 
 class Autopilot:
@@ -41,10 +45,9 @@ class Autopilot:
         The vehicle model and the dock whose motion is known (Assumption 2).
     estimator, sensors : EstimatorSettings, SensorSettings, optional
         The flow estimator's settings and the sensor noise it accounts for.
-    navigation : NavigationStage, optional
-        The estimation stage of ``estimation: filter`` (:mod:`auvdock.estimation.stage`): every
-        step then estimates the state (and the current) from the measurement's readings
-        and hands the controller that estimate.  None: ``estimation: truth``.
+    estimation : EstimationStage, optional
+        The estimation stage (:func:`auvdock.estimation.stage.build_estimation`); default
+        :class:`~auvdock.estimation.stage.TruthStage` (``estimation: truth``).
 
     Attributes
     ----------
@@ -60,10 +63,10 @@ class Autopilot:
         dock: HeaveDock,
         estimator: EstimatorSettings | None = None,
         sensors: SensorSettings | None = None,
-        navigation: NavigationStage | None = None,
+        estimation: EstimationStage | None = None,
     ) -> None:
         t0 = time.perf_counter()
-        self.navigation = navigation
+        self.estimation: EstimationStage = TruthStage() if estimation is None else estimation
         self.settings = settings
         self.vehicle = vehicle
         self.dock = dock
@@ -82,17 +85,18 @@ class Autopilot:
     def extra_series(self) -> dict[str, tuple[int, ...]]:
         """Extra per-step series this autopilot records (name -> per-row shape)."""
         series = dict(getattr(self.controller, "extra_series", {}))
-        if self.navigation is not None:
-            from auvdock.estimation.stage import ESTIMATION_SERIES
-
-            series.update(ESTIMATION_SERIES)
+        series.update(self.estimation.series_shapes)
         return series
+
+    @property
+    def navigation(self) -> EstimationStage | None:
+        """The estimation stage where it is a filter (``estimation: filter``), else None."""
+        return None if self.estimation.mode == "truth" else self.estimation
 
     def reset(self) -> None:
         """Start a new run."""
         self.controller.reset()
-        if self.navigation is not None:
-            self.navigation.reset()
+        self.estimation.reset()
         self.u_prev = np.zeros(self.vehicle.n_thrusters)
         self.u_applied = np.zeros(self.vehicle.n_thrusters)
 
@@ -103,27 +107,27 @@ class Autopilot:
         it; by default it is the command (``sim``)."""
         self.u_applied = np.asarray(thrust, dtype=float).copy()
 
-    def step(self, meas: Measurement) -> ControlOutput:
-        """One control step: estimate, solve, and return the thrust to hold for one period."""
+    def step(self, readings: Readings) -> ControlOutput:
+        """One control step: estimate from the readings, solve, and return the thrust to hold
+        for one period (the controller's command; the actuator path may change it, see
+        :meth:`set_applied`)."""
         t0 = time.perf_counter()
         timing.begin()
-        recorded: dict[str, np.ndarray] = {}
-        if self.navigation is not None:
-            with timing.part("estimation"):
-                meas, recorded = self.navigation.step(meas, self.u_applied)
-            if self.navigation.settling(meas.t):  # no control on a filter that has not settled
-                nan = {k: np.full(s, np.nan) for k, s in self.extra_series.items() if k not in recorded}
-                out = ControlOutput(
-                    np.zeros(self.vehicle.n_thrusters), STATUS_SETTLING, series={**nan, **recorded}
-                )
-                out.solve_time_s = time.perf_counter() - t0
-                out.time_parts = timing.end()
-                self.u_prev = out.thrust.copy()
-                self.u_applied = out.thrust.copy()
-                return out
+        with timing.part("estimation"):
+            est, recorded = self.estimation.step(readings, self.u_applied)
+        if self.estimation.settling(readings.t):  # no control on a filter that has not settled
+            nan = {k: np.full(s, np.nan) for k, s in self.extra_series.items() if k not in recorded}
+            out = ControlOutput(
+                np.zeros(self.vehicle.n_thrusters), STATUS_SETTLING, series={**nan, **recorded}
+            )
+            out.solve_time_s = time.perf_counter() - t0
+            out.time_parts = timing.end()
+            self.u_prev = out.thrust.copy()
+            self.u_applied = out.thrust.copy()
+            return out
         if not self.reads_true_flow:
-            meas = Measurement(meas.t, meas.state, None, meas.sensors)
-        out = self.controller.step(meas, self.u_prev)
+            est = est.without_flow()
+        out = self.controller.step(est, self.u_prev)
         out.series.update(recorded)
         out.solve_time_s = time.perf_counter() - t0
         out.time_parts = timing.end()
@@ -140,9 +144,4 @@ def build_autopilot(
     The one way every command (sim, compare, sweep, fly, replay) builds its step.
     """
     m = mission if controller is None else mission.with_controller(controller)
-    navigation = None
-    if m.estimation == "filter":
-        from auvdock.estimation.stage import NavigationStage
-
-        navigation = NavigationStage(m.navigation, vehicle, m.controller.dt_s, m.start_state())
-    return Autopilot(m.controller, vehicle, dock, m.estimator, m.sensors, navigation)
+    return Autopilot(m.controller, vehicle, dock, m.estimator, m.sensors, build_estimation(m, vehicle))

@@ -86,8 +86,11 @@ def plot_run(
 
     * ``flow_estimate.png`` -- extras ``flow_estimate_m_s`` and ``flow_body_true_m_s``
       (T, 3), body frame, true vs estimated, with a 2-sigma band from the diagonal of
-      ``flow_covariance`` (T, 3, 3) if present.
-    * ``information.png`` -- extra ``information`` (T,), log y-axis if all positive.
+      ``flow_covariance`` (T, 3, 3) if present; the error panel is on a log axis scaled to the
+      settled error (the prior's 2-sigma spike above it, rounding-level errors and exact zeros
+      below it, off the axis and counted in a note).
+    * ``information.png`` -- extra ``information`` (T,): the flow filter's information metric
+      F = lambda_min(G) (paper eq. 8; s^2/m^2, defined in a caption), log y-axis if all positive.
 
     Parameters
     ----------
@@ -506,10 +509,11 @@ def _flow_estimate(results: RunResults) -> Figure:
     err = np.linalg.norm(est - true, axis=1)
     ax = axes[3]
     ax.plot(t, err, color="tab:red", lw=1.2, label="|estimate - true|")
+    band = None
     if sigma is not None:
-        ax.plot(t, 2 * np.linalg.norm(sigma, axis=1), color="tab:orange", lw=1.0, ls="--", label="2σ (norm)")
-    if np.all(err[np.isfinite(err)] > 0):
-        ax.set_yscale("log")
+        band = 2 * np.linalg.norm(sigma, axis=1)
+        ax.plot(t, band, color="tab:orange", lw=1.0, ls="--", label="2σ (norm)")
+    _scale_error_axis(ax, t, err, band)
     ax.set_ylabel("error\n[m/s]")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(loc="best", fontsize="small")
@@ -518,16 +522,65 @@ def _flow_estimate(results: RunResults) -> Figure:
     return fig
 
 
+def _scale_error_axis(ax: Axes, t: np.ndarray, err: np.ndarray, band: np.ndarray | None) -> None:
+    """The estimate-error panel on a log axis whose bottom comes from the SETTLED error.
+
+    The first samples hold the prior's 2σ (about 10 m/s) and often an error of exactly 0 (a zero
+    prior in still water): on a linear axis, or a log axis stretched down to a rounding-level
+    error, the error that matters (mm/s once the filter has converged) is a flat line on the
+    bottom.  The bottom is half the 5th percentile of the positive error after the first
+    :data:`_SETTLE_S` s (or quarter of the run); what lies below it (exact zeros included) is
+    off the axis, and a note on the panel says how many samples and why.
+    """
+    ok = np.isfinite(err) & (err > 0)
+    if not ok.any():
+        return  # no error to show (all zero or unknown): matplotlib's linear default
+    top = [float(err[ok].max())]
+    if band is not None and np.isfinite(band).any() and np.nanmax(band) > 0:
+        top.append(float(np.nanmax(band)))
+    finite_t = t[np.isfinite(t)]
+    t0, t1 = (float(finite_t.min()), float(finite_t.max())) if finite_t.size else (0.0, 0.0)
+    settled = ok & (t >= t0 + min(_SETTLE_S, 0.25 * (t1 - t0)))
+    low = 0.5 * float(np.percentile(err[settled if settled.any() else ok], 5))
+    high = 2.0 * max(top)
+    ax.set_yscale("log", nonpositive="mask")
+    ax.set_ylim(low, max(high, 10 * low))
+    below = np.isfinite(err) & (err < low)
+    if below.any():
+        zeros = int(np.sum(np.isfinite(err) & (err == 0)))
+        ax.text(
+            0.5, 0.97,
+            f"{int(below.sum())} sample{'s' if below.sum() > 1 else ''} below {low:.2g} m/s off the axis"
+            + (f" ({zeros} exactly 0)" if zeros else ""),
+            transform=ax.transAxes, fontsize="x-small", color="0.3", ha="center", va="top",
+        )  # fmt: skip
+
+
+#: The error panel's bottom is set by the error after this long (s): past the prior's spike.
+_SETTLE_S = 2.0
+
+#: What the information figure's F is (auvdock.estimation.flow_filter, paper eq. 8), and its unit.
+_INFORMATION_CAPTION = (
+    "F = λmin(G): the smallest eigenvalue of the flow filter's information gramian G (paper eq. 8), which "
+    "starts at I and each step turns with the vehicle\nand adds Hᵀ R⁻¹ H (H, R: the model and noise of the "
+    "accelerometer and depth-rate readings): what the readings say about the current in its\n"
+    "least-observed direction.  Unit (m/s)⁻² = s²/m²; 1/√F is the flow uncertainty (m/s) the readings leave "
+    "in that direction."
+)
+
+
 def _information(results: RunResults) -> Figure:
     info = _extra(results, "information", ())
-    fig = _new_figure((8.0, 4.5))
+    fig = _new_figure((8.0, 5.0))
     ax = fig.add_subplot()
     ax.plot(results.time_s, info, color="tab:purple")
     finite = info[np.isfinite(info)]
     if finite.size and np.all(finite > 0):
         ax.set_yscale("log")
     ax.set_xlabel("time [s]")
-    ax.set_ylabel("information F")
+    ax.set_ylabel("information F = λmin(G) [s²/m²]")
     ax.grid(True, which="both", alpha=0.3)
     ax.set_title(_title(results, "Flow information F"), fontsize="medium")
+    fig.text(0.01, 0.005, _INFORMATION_CAPTION, fontsize="x-small", color="0.25", ha="left", va="bottom")
+    fig.get_layout_engine().set(rect=(0, 0.09, 1, 0.91))
     return fig

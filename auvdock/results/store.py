@@ -90,7 +90,7 @@ from typing import Any
 import h5py
 import numpy as np
 
-from auvdock import __version__
+from auvdock._version import __version__
 
 __all__ = [
     "FORMAT",

@@ -2,8 +2,9 @@
 
 :class:`TruthPlant` holds the true state of the vehicle and steps it with the truth
 integrator of :class:`auvdock.vehicle.Vehicle` (RK4 through the mission's flow field, thrust
-held over the step, the integrator :func:`auvdock.loop.simulation.simulate` uses).  Both
-simulators that stand in for the water fly it: :class:`auvdock.standins.vehicle_sim.VehicleSim`
+held over the step).  The closed loop of ``sim`` steps it
+(:class:`auvdock.loop.simulated_plant.SimulatedPlant`), and both simulators that stand in for
+the water fly it: :class:`auvdock.standins.vehicle_sim.VehicleSim`
 (a MAVLink vehicle) and :class:`auvdock.standins.sitl_physics.SitlPhysics` (the physics
 backend of ArduPilot SITL), so that they move the same vehicle the same way::
 
@@ -71,6 +72,10 @@ class TruthPlant:
         at once and used by :meth:`step` when no other step is given.  Other steps use one
         integrator with the step as an input (:meth:`auvdock.vehicle.Vehicle.stepper_any_dt`),
         built at once when ``dt`` is None, else on first use.
+    keep_nonfinite : bool
+        A step that goes non-finite keeps its non-finite state (the closed loop then ends the
+        run as diverged) instead of stopping the vehicle where it was (what a stand-in vehicle
+        that must go on answering does).
     """
 
     def __init__(
@@ -82,6 +87,7 @@ class TruthPlant:
         substeps: int = 4,
         surface: bool = True,
         dt: float | None = None,
+        keep_nonfinite: bool = False,
     ) -> None:
         x0 = np.array(x0, dtype=float).ravel()
         if x0.shape != (NX,):
@@ -92,6 +98,7 @@ class TruthPlant:
         self.flow = flow
         self.substeps = int(substeps)
         self.surface = bool(surface)
+        self.keep_nonfinite = bool(keep_nonfinite)
         self.dt = None if dt is None else float(dt)
         self._fixed: ca.Function | None = (
             None if dt is None else vehicle.stepper(float(dt), self.substeps, flow)
@@ -142,6 +149,10 @@ class TruthPlant:
                 self._any_dt = self.vehicle.stepper_any_dt(self.substeps, self.flow)
             x_new = np.asarray(self._any_dt(self.x, thrust_N, t, h)).ravel()
         if not np.all(np.isfinite(x_new)):
+            if self.keep_nonfinite:
+                self.nu1_dot = np.full(3, np.nan)
+                self.x = x_new
+                return self.x
             x_new = self.x.copy()
             x_new[6:12] = 0.0
         if self.surface and x_new[2] < 0.0:

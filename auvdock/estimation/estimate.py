@@ -1,0 +1,49 @@
+"""What every controller receives: the estimation stage's :class:`Estimate` of one instant."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from auvdock.sensing.readings import FlowSensing
+
+__all__ = ["Estimate"]
+
+
+@dataclass
+class Estimate:
+    """The estimation stage's view of the vehicle at one control instant.
+
+    Attributes
+    ----------
+    t : float
+        Time, s (mission clock: 0 at the start).
+    state : ndarray (12,)
+        The state estimate ``[eta; nu]``: NED position (m), ZYX Euler angles (rad), body
+        velocity over ground (m/s) and angular rate (rad/s); :mod:`auvdock.vehicle.state`.
+        Under ``estimation: truth`` (Assumption 1) the state as given.
+    state_cov : ndarray (12, 12) or None
+        Its covariance where the stage knows it (the navigation filter), else None.
+    flow_ned : ndarray (3,) or None
+        The water velocity at the vehicle in {n}, m/s, from an exteroceptive source
+        (Assumption 3), for the controllers whose definition reads it (Kinematic, Oracle);
+        None for every other controller (:class:`auvdock.loop.autopilot.Autopilot` strips it).
+    flow_sensing : FlowSensing or None
+        The FSE flow filter's input (paper IV.A): the paper's simulated sensing under
+        ``estimation: truth``, or derived from the navigation filter's estimate.
+    current_ned : ndarray (3,) or None
+        The estimation stage's own estimate of the current in {n}, m/s (the navigation
+        filter's), where it has one.
+    """
+
+    t: float
+    state: np.ndarray
+    state_cov: np.ndarray | None = None
+    flow_ned: np.ndarray | None = None
+    flow_sensing: FlowSensing | None = None
+    current_ned: np.ndarray | None = None
+
+    def without_flow(self) -> Estimate:
+        """The same estimate with ``flow_ned`` removed (for controllers that may not read it)."""
+        return Estimate(self.t, self.state, self.state_cov, None, self.flow_sensing, self.current_ned)
