@@ -12,7 +12,7 @@ from typer.testing import CliRunner
 
 import auvdock.cli.camera as camera_cli
 from auvdock.camera.calibration import NoVideoError, collect_views
-from auvdock.camera.video import Frame
+from auvdock.camera.video_in import Frame
 from auvdock.cli import app
 from auvdock.runtime.clock import SimClock
 

@@ -11,7 +11,8 @@ from test_camera import CAM, COLS, ROWS, SQUARE, _board_views
 from typer.testing import CliRunner
 
 from auvdock.camera import load_camera
-from auvdock.camera.layout import default_layout, plan_pages
+from auvdock.camera.layout import default_layout
+from auvdock.camera.print_sheet import plan_pages
 from auvdock.cli import app
 
 ROOT = Path(__file__).resolve().parents[1]

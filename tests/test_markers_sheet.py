@@ -13,15 +13,8 @@ import pytest
 import yaml
 from typer.testing import CliRunner
 
-from auvdock.camera.layout import (
-    PAPER_MM,
-    Marker,
-    MarkerLayout,
-    aruco_dictionary,
-    default_layout,
-    plan_pages,
-    write_pages,
-)
+from auvdock.camera.layout import Marker, MarkerLayout, aruco_dictionary, default_layout
+from auvdock.camera.print_sheet import PAPER_MM, plan_pages, write_pages
 from auvdock.cli import app
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -505,7 +505,7 @@ def test_camera_streams_the_true_view_over_rtp_and_the_markers_are_found(serve) 
     from auvdock.camera.model import CameraMount, camera_from_dock
     from auvdock.camera.pose import MarkerDetector, estimate_dock_pose
     from auvdock.camera.truth_stream import TruthCameraStream
-    from auvdock.camera.video import open_source
+    from auvdock.camera.video_in import open_source
 
     physics, peer = serve("sitl_camera", hold_until_thrust=False)
     for k in range(2 * RATE):  # 2 s of floating up, then no more frames: the pose stays put

@@ -1,5 +1,5 @@
-"""Camera frame sources (auvdock.camera.video): video files, RTP/H.264 loopback, V4L2 (faked), image folders,
-the latest-frame grabber and spec errors.
+"""Camera frame sources (auvdock.camera.video_in): video files, RTP/H.264 loopback, V4L2 (faked),
+image folders, the latest-frame grabber and spec errors.
 
 Images: the default dock layout rendered by an ideal 320x240 camera (80 deg field of view) approaching the
 panel, or a bright square moving on a dark background. Networking only on 127.0.0.1.
@@ -17,7 +17,6 @@ import re
 import socket
 import struct
 import threading
-import time
 from pathlib import Path
 
 import cv2
@@ -28,12 +27,13 @@ av = pytest.importorskip("av")
 
 from helpers.loopback import free_udp_pair  # noqa: E402
 
-from auvdock.camera import video  # noqa: E402
+from auvdock.camera import video_in as video  # noqa: E402
 from auvdock.camera.layout import default_layout  # noqa: E402
 from auvdock.camera.model import R_BC_DEFAULT, CameraModel  # noqa: E402
 from auvdock.camera.pose import MarkerDetector  # noqa: E402
 from auvdock.camera.render import render_view  # noqa: E402
-from auvdock.camera.video import (  # noqa: E402
+from auvdock.camera.video_common import VideoSourceError  # noqa: E402
+from auvdock.camera.video_in import (  # noqa: E402
     SOURCE_FORMS,
     Frame,
     FrameSource,
@@ -42,11 +42,9 @@ from auvdock.camera.video import (  # noqa: E402
     RtpSource,
     V4l2Source,
     VideoFileSource,
-    VideoSourceError,
-    h264_encoder,
     open_source,
-    stream_rtp,
 )
+from auvdock.camera.video_out import h264_encoder, stream_rtp  # noqa: E402
 from auvdock.runtime.clock import SimClock  # noqa: E402
 
 CAM = CameraModel.ideal(320, 240)
@@ -315,6 +313,9 @@ def test_stream_rtp_checks_frames() -> None:
 
 
 class _FakeCapture:
+    """A camera that captures a frame each time the test presses its shutter (no clock at all),
+    until it is set free-running."""
+
     instances: list[_FakeCapture] = []
     opens = True
 
@@ -322,15 +323,22 @@ class _FakeCapture:
         self.args = (index, api)
         self.k = 0
         self.released = False
+        self.shutter = threading.Semaphore(0)
+        self.free_running = False
         _FakeCapture.instances.append(self)
 
     def isOpened(self) -> bool:
         return self.opens
 
     def read(self) -> tuple[bool, np.ndarray]:
-        time.sleep(0.005)
+        if not self.free_running:
+            self.shutter.acquire()
         self.k += 1
         return True, np.full((48, 64, 3), (10 * self.k) % 200, np.uint8)
+
+    def run_free(self) -> None:
+        self.free_running = True
+        self.shutter.release()
 
     def release(self) -> None:
         self.released = True
@@ -343,11 +351,15 @@ def test_v4l2_source_with_a_faked_camera(monkeypatch: pytest.MonkeyPatch) -> Non
     _FakeCapture.instances.clear()
     with open_source("/dev/video7") as source:
         assert isinstance(source, V4l2Source) and source.description == "V4L2 device /dev/video7"
-        frames = [source.read(1.0) for _ in range(3)]
-    cap = _FakeCapture.instances[-1]
+        cap = _FakeCapture.instances[-1]
+        frames = []
+        for _ in range(3):  # one frame captured at a time, each read before the next is captured
+            cap.shutter.release()
+            frames.append(source.read(30.0))  # returns as soon as it is there
+        cap.run_free()  # so that its reader thread sees the stop when the source closes
     assert cap.args == (7, cv2.CAP_V4L2) and cap.released
     assert all(f is not None and f.image.shape == (48, 64) and f.pts_s is None for f in frames)
-    assert [f.index for f in frames] == [0, 1, 2]  # read promptly: none dropped from the 2-frame queue
+    assert [f.index for f in frames] == [0, 1, 2]  # none dropped from the 2-frame queue
     assert [int(f.image[0, 0]) for f in frames] == [10, 20, 30]
     monkeypatch.setattr(_FakeCapture, "opens", False)
     with pytest.raises(VideoSourceError, match=r"^cannot open V4L2 device /dev/video7: "):

@@ -3,8 +3,10 @@
 Modules
 -------
 layout
-    Markers on the dock's back panel (:class:`Marker`, :class:`MarkerLayout`, :func:`default_layout`),
-    marker images and a printable true-scale sheet (:func:`write_sheet`).
+    Markers on the dock's back panel (:class:`Marker`, :class:`MarkerLayout`, :func:`default_layout`)
+    and marker images.
+print_sheet
+    The printable true-scale marker sheet, tiled over A4 or Letter pages (:func:`write_sheet`).
 model
     Camera intrinsics (:class:`CameraModel`, YAML :func:`load_camera` / :func:`save_camera`), the camera
     mount on the vehicle (:class:`CameraMount`) and the frame chain NED -> body -> camera <- dock
@@ -15,9 +17,13 @@ render
 pose
     Marker detection (:class:`MarkerDetector`) and fused dock pose with covariance
     (:func:`estimate_dock_pose`, :class:`DockPose`, :meth:`DockPose.in_body`).
-video
+video_in
     Frame sources: RTP/H.264 from BlueOS (``udp:5600``), V4L2, video files, image folders
     (:func:`open_source`), and :class:`LatestFrameGrabber` (newest frame only, in a thread).
+video_out
+    The RTP/H.264 sender (:func:`stream_rtp`), what BlueOS sends, for rehearsals.
+video_common
+    What both sides share (the RTP payload type, :class:`VideoSourceError`).
 tracker
     ``fly`` with ``dock.source: camera``: the synthetic camera, the detection thread and the
     lost-tracking states (imported on its own: ``auvdock.camera.tracker``).
@@ -38,8 +44,6 @@ from auvdock.camera.layout import (
     aruco_dictionary,
     default_layout,
     marker_image,
-    sheet_size_in,
-    write_sheet,
 )
 from auvdock.camera.model import (
     CameraModel,
@@ -58,8 +62,10 @@ from auvdock.camera.pose import (
     relative_pose_truth,
     wrap_angle,
 )
+from auvdock.camera.print_sheet import sheet_size_in, write_sheet
 from auvdock.camera.render import render_checkerboard, render_view
-from auvdock.camera.video import Frame, FrameSource, LatestFrameGrabber, open_source, stream_rtp
+from auvdock.camera.video_in import Frame, FrameSource, LatestFrameGrabber, open_source
+from auvdock.camera.video_out import stream_rtp
 
 __all__ = [
     "Frame",

@@ -237,7 +237,7 @@ def collect_views(
     Parameters
     ----------
     source : FrameSource
-        E.g. from :func:`auvdock.camera.video.open_source`. It is read without blocking (``read(0)``); the
+        E.g. from :func:`auvdock.camera.video_in.open_source`. It is read without blocking (``read(0)``); the
         waits between reads are ``clock.sleep`` of at most ``poll_s`` (so a
         :class:`auvdock.runtime.clock.SimClock`
         runs them in simulated time).
@@ -273,7 +273,7 @@ def collect_views(
     ValueError
         Fewer than :data:`MIN_VIEWS` views, e.g. ``"only 2 board views (the whole 9x6 board in view) in
         85 s of video (need 5)"`` or ``"... before the video stopped (no frame from <what> for 30 s) ..."``.
-    auvdock.camera.video.VideoSourceError
+    auvdock.camera.video_common.VideoSourceError
         The source failed (its reader thread stopped on an error).
     """
     _check_pattern(cols, rows)

@@ -2,13 +2,17 @@
 
 Frames
 ------
-{n}  NED world frame.
-{b}  vehicle body: x forward, y starboard, z down. Vehicle pose
-     ``eta = [north, east, down, roll, pitch, yaw]`` (m, rad); ``R_nb = Rz(yaw) Ry(pitch) Rx(roll)``
-     maps body vectors to NED.
-{d}  dock: origin at the docking point, x along the docked vehicle's heading (``R_nd = Rz(dock_heading)``),
-     y starboard, z down; the dock heaves but does not roll or pitch.
-{c}  camera, OpenCV convention: x right, y down, z along the optical axis.
+{n}
+    NED world frame.
+{b}
+    vehicle body: x forward, y starboard, z down. Vehicle pose
+    ``eta = [north, east, down, roll, pitch, yaw]`` (m, rad); ``R_nb = Rz(yaw) Ry(pitch) Rx(roll)``
+    maps body vectors to NED.
+{d}
+    dock: origin at the docking point, x along the docked vehicle's heading (``R_nd = Rz(dock_heading)``),
+    y starboard, z down; the dock heaves but does not roll or pitch.
+{c}
+    camera, OpenCV convention: x right, y down, z along the optical axis.
 
 A pose "of frame {a} in frame {c}" is written ``(R_ca, t_ca)`` with ``x_c = R_ca x_a + t_ca``.
 

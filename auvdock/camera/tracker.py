@@ -6,7 +6,7 @@ Pieces, each small:
   (:func:`auvdock.camera.render.render_view`) from the vehicle's latest pose, for rehearsal
   with ``auvdock vehicle-sim`` and for tests (``camera.source: synthetic``);
 * :class:`DockTracker` -- a background thread that takes the newest camera frame
-  (:class:`auvdock.camera.video.LatestFrameGrabber`: slow detection drops frames, it never
+  (:class:`auvdock.camera.video_in.LatestFrameGrabber`: slow detection drops frames, it never
   lags), detects the markers, fuses the dock pose (:func:`auvdock.camera.pose.estimate_dock_pose`)
   and turns it into a dock position in the mission's NED frame with the vehicle pose at the
   frame's capture time, as a :class:`DockFix` with its covariance and latency;
@@ -42,7 +42,7 @@ from auvdock.camera.layout import MarkerLayout
 from auvdock.camera.model import CameraModel, CameraMount, camera_from_dock
 from auvdock.camera.pose import MarkerDetector, estimate_dock_pose
 from auvdock.camera.render import render_view
-from auvdock.camera.video import Frame, LatestFrameGrabber
+from auvdock.camera.video_in import Frame, LatestFrameGrabber
 from auvdock.runtime.clock import Clock, wall_clock
 from auvdock.vehicle.geometry import rotation_zyx
 from auvdock.vehicle.state import POS
@@ -241,7 +241,7 @@ class DockTracker:
     Parameters
     ----------
     source : FrameSource
-        Any source with ``read(timeout_s)`` and ``close()`` (:mod:`auvdock.camera.video`,
+        Any source with ``read(timeout_s)`` and ``close()`` (:mod:`auvdock.camera.video_in`,
         :class:`SyntheticCamera`).
     camera, layout, mount :
         Intrinsics, dock markers, camera pose on the vehicle.

@@ -3,7 +3,7 @@
 :class:`TruthCameraStream` renders the dock's markers as the vehicle's camera sees them from
 the vehicle's **true** pose (:meth:`auvdock.camera.tracker.SyntheticCamera.render`: the
 mission's camera model, mount, markers, dock and ``camera.synthetic`` settings) and sends
-the frames with :func:`auvdock.camera.video.stream_rtp` in a thread.  A ``fly`` session
+the frames with :func:`auvdock.camera.video_out.stream_rtp` in a thread.  A ``fly`` session
 whose mission has ``camera.source: udp:PORT`` receives them exactly as it would from a
 BlueROV2's camera, through the same decoder, detector and tracking filter::
 
@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from auvdock.camera.tracker import SyntheticCamera
-from auvdock.camera.video import stream_rtp
+from auvdock.camera.video_out import stream_rtp
 from auvdock.runtime.clock import Clock, wall_clock
 
 if TYPE_CHECKING:
@@ -52,7 +52,7 @@ class TruthCameraStream:
     rate_hz : float
         Frames per second.
     encoder : str, optional
-        FFmpeg H.264 encoder (default :func:`auvdock.camera.video.h264_encoder`).
+        FFmpeg H.264 encoder (default :func:`auvdock.camera.video_out.h264_encoder`).
     clock : Clock, optional
         What the frames are paced on (default the wall clock).
     """

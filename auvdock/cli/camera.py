@@ -24,11 +24,14 @@ clock: Clock = wall_clock
 
 
 def _load_layout(path: Path):
-    """A marker layout from a mission file (its dock.markers) or a layout YAML file."""
+    """A marker layout from a mission file (its dock.markers), a shipped mission's name
+    (``tank_camera``) or a layout YAML file."""
     from auvdock.camera.layout import MarkerLayout
+    from auvdock.config.catalog import resolve
 
+    path = resolve(path)
     if not path.is_file():
-        fail_input(f"{path}: no such file")
+        fail_input(f"{path}: no such file (nor a shipped mission of that name)")
     try:
         data = yaml.safe_load(path.read_text())
     except yaml.YAMLError as e:
@@ -48,7 +51,7 @@ def _say(line: str) -> None:
 def _sheet_target(out: Path | None, layout: Path, pdf: bool) -> Path:
     """The file ``--out`` names (default ``<layout>_markers.pdf/.png``), or exit 2 with one line: a
     directory, a suffix that is not .pdf / .png / .jpg / .jpeg, a parent that cannot be a directory."""
-    from auvdock.camera.layout import sheet_format
+    from auvdock.camera.print_sheet import sheet_format
 
     default = f"{layout.stem}_markers.{'pdf' if pdf else 'png'}"
     target = out or Path(default)
@@ -68,7 +71,9 @@ def _sheet_target(out: Path | None, layout: Path, pdf: bool) -> Path:
 @app.command()
 def markers(
     layout: Path = typer.Argument(
-        ..., help="Mission file (its dock.markers, or the default layout) or layout YAML."
+        ...,
+        help="Mission file or shipped mission name (its dock.markers, or the default layout), or a "
+        "layout YAML file.",
     ),
     out: Path | None = typer.Option(
         None,
@@ -86,7 +91,7 @@ def markers(
     pdf: bool = typer.Option(True, "--pdf/--png", help="Format when --out has no suffix: PDF or PNG."),
 ) -> None:
     """Print the dock's marker sheet at true scale on A4 or Letter (print at 100 %, check the 100 mm bar)."""
-    from auvdock.camera.layout import PAPER_MM, plan_pages, write_pages
+    from auvdock.camera.print_sheet import PAPER_MM, plan_pages, write_pages
 
     if paper.lower() not in PAPER_MM:
         fail_input(f"--paper {paper}: expected {' or '.join(PAPER_MM)}")
@@ -134,7 +139,7 @@ def _parse_board(board: str) -> tuple[int, int]:
 
 def _live_names(src: object) -> tuple[str, str, str]:
     """(the source in messages, what its wait is for, a hint when no video came) of a live source."""
-    from auvdock.camera.video import RtpSource, V4l2Source
+    from auvdock.camera.video_in import RtpSource, V4l2Source
 
     if isinstance(src, RtpSource):
         where = f"UDP port {src.port}" if src.host == "0.0.0.0" else f"UDP {src.host}:{src.port}"
@@ -183,7 +188,8 @@ def calibrate(
         except ValueError as e:
             fail_input(str(e))
     else:
-        from auvdock.camera.video import VideoSourceError, open_source
+        from auvdock.camera.video_common import VideoSourceError
+        from auvdock.camera.video_in import open_source
 
         try:
             src = open_source(source, clock=clock)

@@ -158,7 +158,8 @@ def sitl_physics(
     stream: TruthCameraStream | None = None
     if target is not None:
         from auvdock.camera.truth_stream import TruthCameraStream
-        from auvdock.camera.video import VideoSourceError, h264_encoder
+        from auvdock.camera.video_common import VideoSourceError
+        from auvdock.camera.video_out import h264_encoder
 
         try:
             h264_encoder()

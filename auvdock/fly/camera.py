@@ -82,7 +82,7 @@ class CameraTracking:
                 mission, model_dock, self.latest_pose, clock=clock
             )
         else:
-            from auvdock.camera.video import open_source
+            from auvdock.camera.video_in import open_source
 
             try:
                 self.source = open_source(c.source, clock=clock)

@@ -28,10 +28,11 @@ time (a controller step, a rendered frame, a marker detection are instantaneous)
 
 Messages still travel over real sockets (MAVLink over UDP on 127.0.0.1).  For their delivery
 to be deterministic too, :meth:`SimClock.attach` wraps a pymavlink UDP connection's socket so
-that the clock counts the datagrams sent to each participating socket: a datagram sent makes
-its receiver's :meth:`~SimClock.wait_readable` due at the same simulated instant, and reading
-from a socket with datagrams counted but not yet readable waits (in real time, briefly) until
-the kernel has delivered them.  So a message sent at simulated time t is read at t.
+that the clock counts the datagrams sent to each participating socket
+(:mod:`auvdock.runtime.sim_udp`): a datagram sent makes its receiver's
+:meth:`~SimClock.wait_readable` due at the same simulated instant, and reading from a socket
+with datagrams counted but not yet readable waits (in real time, briefly) until the kernel has
+delivered them.  So a message sent at simulated time t is read at t.
 
 Rules for code that runs under a SimClock: wait only through the clock (a participant blocked
 on anything else -- ``time.sleep``, a ``threading`` primitive, a blocking socket read --
@@ -52,12 +53,12 @@ from __future__ import annotations
 import itertools
 import math
 import select
-import socket
 import threading
 import time
-from collections import Counter
 from collections.abc import Callable
 from typing import Any, Protocol, runtime_checkable
+
+from auvdock.runtime.sim_udp import DatagramLedger, attach_counting, counting_socket, port_key
 
 __all__ = [
     "Clock",
@@ -230,10 +231,8 @@ class SimClock:
         self._parts.append(me)
         self._by_thread[me.thread] = me
         self._owner: _Participant | None = me
-        # datagram accounting, by local UDP port of the receiving socket
-        self._ports: set[int] = set()
-        self._sent: Counter[int] = Counter()
-        self._received: Counter[int] = Counter()
+        #: Datagram accounting of the attached sockets, by local UDP port of the receiving socket.
+        self.datagrams = DatagramLedger(self._lock, self._notify)
 
     # -- time ----------------------------------------------------------------------------
     def now(self) -> float:
@@ -305,14 +304,13 @@ class SimClock:
 
     def wait_readable(self, sock: Any, timeout: float) -> bool:
         """Due when a counted datagram is sent to ``sock``'s port (or at once if data is there)."""
-        csock = _counting_socket(sock)
+        csock = counting_socket(sock)
         deadline = self._now + max(0.0, timeout)
         while True:
             if csock is not None and csock.local_port is not None:
                 port = csock.local_port
-                with self._lock:
-                    if self._sent[port] > self._received[port]:
-                        return True
+                if self.datagrams.pending(port) > 0:
+                    return True
             else:
                 port = None
             ready, _, _ = select.select([_fd(sock)], [], [], 0)  # data from senders not counted
@@ -320,7 +318,7 @@ class SimClock:
                 return True
             if self._now >= deadline:
                 return False
-            self._wait(deadline, (("port", port),) if port is not None else ())
+            self._wait(deadline, (port_key(port),) if port is not None else ())
 
     def attach(self, conn: Any) -> None:
         """Count the datagrams of a pymavlink UDP connection (``udpin:`` / ``udpout:``).
@@ -330,12 +328,7 @@ class SimClock:
         ValueError
             For a connection that is not UDP (serial and TCP links are not simulated).
         """
-        sock = getattr(conn, "port", None)
-        if isinstance(sock, _CountingSocket):
-            return
-        if not isinstance(sock, socket.socket) or sock.type != socket.SOCK_DGRAM:
-            raise ValueError(f"SimClock: only UDP connections can run in simulated time, not {conn!r}")
-        conn.port = _CountingSocket(sock, self)
+        attach_counting(conn, self)
 
     # -- life ------------------------------------------------------------------------------
     def close(self) -> None:
@@ -437,36 +430,6 @@ class SimClock:
                 if waiting:
                     self._hand_to(min(waiting, key=lambda p: p.due))
 
-    # -- datagram accounting ---------------------------------------------------------------
-    def _register_port(self, port: int) -> None:
-        with self._lock:
-            self._ports.add(port)
-            self._received[port] = self._sent[port]
-
-    def _unregister_port(self, port: int) -> None:
-        with self._lock:
-            self._ports.discard(port)
-
-    def _count_sent(self, port: int) -> None:
-        with self._lock:
-            if port not in self._ports:
-                return
-            self._sent[port] += 1
-        self._notify(("port", port))
-
-    def _pending(self, port: int) -> int:
-        with self._lock:
-            return self._sent[port] - self._received[port]
-
-    def _count_received(self, port: int) -> None:
-        with self._lock:
-            if self._received[port] < self._sent[port]:
-                self._received[port] += 1
-
-    def _forget(self, port: int) -> None:
-        with self._lock:
-            self._received[port] = self._sent[port]
-
 
 class _SimEvent:
     """``threading.Event`` in simulated time."""
@@ -539,61 +502,3 @@ class _SimCondition:
 
     def notify_all(self) -> None:
         self._clock._notify(self)
-
-
-class _CountingSocket:
-    """A UDP socket whose datagrams a SimClock counts (see :meth:`SimClock.attach`)."""
-
-    def __init__(self, sock: socket.socket, clock: SimClock) -> None:
-        self._sock = sock
-        self._clock = clock
-        self.local_port: int | None = None
-        self._register()
-
-    def _register(self) -> None:
-        try:
-            port = int(self._sock.getsockname()[1])
-        except OSError:
-            return
-        if port:
-            self.local_port = port
-            self._clock._register_port(port)
-
-    def sendto(self, data: bytes, *args: Any) -> int:
-        n = self._sock.sendto(data, *args)
-        if self.local_port is None:
-            self._register()  # an unbound (udpout) socket gets its port with the first datagram
-        address = args[-1]
-        if isinstance(address, tuple) and len(address) >= 2:
-            self._clock._count_sent(int(address[1]))
-        return n
-
-    def recvfrom(self, bufsize: int, *args: Any) -> tuple[bytes, Any]:
-        port = self.local_port
-        if port is not None and self._clock._pending(port) > 0:
-            # counted but maybe not yet delivered by the kernel: wait for it (real time, microseconds)
-            ready, _, _ = select.select([self._sock], [], [], self._clock.delivery_timeout_s)
-            if not ready:
-                self._clock._forget(port)  # lost (never on loopback); do not wait for it again
-        data, address = self._sock.recvfrom(bufsize, *args)
-        if port is not None:
-            self._clock._count_received(port)
-        return data, address
-
-    def close(self) -> None:
-        if self.local_port is not None:
-            self._clock._unregister_port(self.local_port)
-        self._sock.close()
-
-    def fileno(self) -> int:
-        return self._sock.fileno()
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._sock, name)
-
-
-def _counting_socket(sock: Any) -> _CountingSocket | None:
-    if isinstance(sock, _CountingSocket):
-        return sock
-    port = getattr(sock, "port", None)
-    return port if isinstance(port, _CountingSocket) else None
