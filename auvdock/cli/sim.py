@@ -146,13 +146,17 @@ def sim(
         f"(N = {m.controller.horizon_steps}, dt = {m.controller.dt_s} s, {solver})"
     )
     from auvdock.loop.autopilot import build_autopilot
-
+    from auvdock.loop.simulation import idealisations
     from auvdock.runtime.interrupts import SigintDeferred
 
     # build (and, the first time, compile) the controller before the progress display starts;
     # whole: CasADi would swallow a Ctrl-C landing in the construction (it is raised after it)
     with SigintDeferred():
         ap = build_autopilot(m, m.build_vehicle(), m.build_dock())
+    kept = idealisations(m, ap.reads_true_flow)
+    console.print(
+        "idealisations kept: " + ("; ".join(kept) if kept else "none"), markup=False, highlight=False
+    )
     with Progress(
         SpinnerColumn(),
         TextColumn("[progress.description]{task.description}"),

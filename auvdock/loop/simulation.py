@@ -17,6 +17,7 @@ one in which docking is declared, or the last one -- is written as a last row wi
 
 from __future__ import annotations
 
+import json
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -37,7 +38,23 @@ from auvdock.results.store import RunWriter, flush_steps
 from auvdock.runtime.interrupts import SigintDeferred
 from auvdock.vehicle.actuators import ACTUATOR_PATHS, build_actuators
 
-__all__ = ["Progress", "RunSummary", "simulate", "run_outcome"]
+__all__ = ["Progress", "RunSummary", "simulate", "run_outcome", "idealisations"]
+
+
+def idealisations(mission: Mission, reads_true_flow: bool) -> list[str]:
+    """The idealisations a simulated run of ``mission`` keeps, one sentence each (empty: none).
+
+    ``reads_true_flow``: the controller's definition reads the true flow (Kinematic, Oracle).
+    """
+    out = []
+    if mission.estimation == "truth":
+        out.append("Assumption 1: the controllers know the true state (estimation: truth)")
+    out.append("Assumption 2: the controllers know the dock's motion (the mission's dock trajectory)")
+    if reads_true_flow:
+        out.append("Assumption 3: the controller reads the true flow at the vehicle (its definition)")
+    if mission.simulation.actuators == "ideal":
+        out.append("ideal actuators: the commanded thrust is applied exactly (simulation.actuators: ideal)")
+    return out
 
 
 @dataclass
@@ -139,6 +156,7 @@ def simulate(
             "reads_true_flow": ap.reads_true_flow,
             "estimation": mission.estimation,
             "actuators": f"{actuators.name}: {ACTUATOR_PATHS[actuators.name]}",
+            "idealisations": json.dumps(idealisations(mission, ap.reads_true_flow)),
         },
         flush_every=flush_steps(dt),
     )
