@@ -14,11 +14,11 @@ The session in named steps (:meth:`FlySession.run`)::
     _arm              --arm: MANUAL mode, arm retried while pre-arm checks fail
                       (fly.arm_timeout_s); else a dry run
     _open_results     the results file
-    _control_loop     every dt, on the session's clock: _step
-        _step             _take_telemetry -> _check_takeover -> _check_limits -> _refresh_rates
-                          -> _check_telemetry -> state -> _check_geofence -> camera (lost: _hold)
-                          -> _check_landing_target -> docked? -> _control (the controller-and-
-                          estimator step on the sensor readings, RC override, one row)
+    _control_loop     the one closed loop (auvdock.loop.closed_loop.run_closed_loop) on this
+                      vehicle (auvdock.fly.plant.MavlinkPlant): every dt, on the session's clock,
+                      the telemetry drained and checked (auvdock.fly.safety), the state, the camera
+                      (lost: hold), the LANDING_TARGET dock (auvdock.fly.dock_source), docked?, the
+                      estimation-and-control step on the readings, RC overrides, one row
     _finish           the one ending: neutral, release, disarm if we armed, link closed, outcome
                       written (a takeover: release only)
 
@@ -56,7 +56,6 @@ and the results file is always closed readable.
 
 from __future__ import annotations
 
-import collections
 import contextlib
 import dataclasses
 import json
@@ -74,18 +73,21 @@ from pymavlink import mavutil
 from auvdock.config.mission import Mission, MissionError
 from auvdock.controllers.hold import DepthAttitudeHold
 from auvdock.controllers.registry import CONTROLLERS, split_controller
-from auvdock.controllers.status import FAILURE_CODES, STATUS_NAMES
+from auvdock.controllers.status import STATUS_NAMES
 from auvdock.fly.camera import CAMERA_SERIES, CameraOpenError, CameraTracking
 from auvdock.fly.conformance import PARAMETER_GROUPS, check_parameters, describe, parameter_names
-from auvdock.fly.link import PILOT_INPUT_TYPES, LinkError, MavlinkLink
+from auvdock.fly.dock_source import LandingTargetSource
+from auvdock.fly.link import LinkError, MavlinkLink
 from auvdock.fly.plant import MavlinkPlant
 from auvdock.fly.record import FlyRecorder
+from auvdock.fly.safety import FailedSolves, limit_reason, preflight_problems, staleness, takeover_reason
 from auvdock.fly.telemetry import (
     PRESSURE_PARAMETERS,
     TELEMETRY_MESSAGES,
     TelemetrySensors,
     geofence_violation,
 )
+from auvdock.fly.vehicle_state import VehicleState
 from auvdock.loop.autopilot import build_autopilot
 from auvdock.loop.closed_loop import LoopResult, run_closed_loop
 from auvdock.loop.closed_loop import Progress as LoopProgress
@@ -94,8 +96,6 @@ from auvdock.runtime.interrupts import SigintDeferred
 from auvdock.runtime.stderr_capture import StderrCapture
 from auvdock.vehicle.actuators import ArduSubActuators
 from auvdock.vehicle.ardusub import MODES, NEUTRAL_CHANNELS
-from auvdock.vehicle.geometry import rotation_zyx
-from auvdock.vehicle.state import ATT, POS
 from auvdock.world.dock import HeaveDock, TrackedDock
 
 __all__ = ["FlySession", "FlyResult", "FlyAbortError", "FlyTakeoverError", "EXIT_CODES"]
@@ -116,12 +116,6 @@ ARM_RETRY_S = 2.0
 MODE_TIMEOUT_S = 3.0
 #: Waits show their progress this often, s.
 PROGRESS_EVERY_S = 5.0
-#: Time constant of the battery voltage's low-pass (thrust makes the voltage sag briefly), s.
-BATTERY_FILTER_S = 1.0
-#: RC_CHANNELS showing channels fly did not send in this many messages in a row: another station.
-FOREIGN_CHANNELS_IN_A_ROW = 2
-#: Overrides sent within this window (us) before an RC_CHANNELS message may be what it shows.
-SENT_WINDOW_US = 1_000_000
 #: Streams requested besides TELEMETRY_MESSAGES: name -> rate (None: the control rate): the
 #: HEARTBEAT (armed bit, mode: a takeover is seen within a control period), SYS_STATUS
 #: (battery), RC_CHANNELS (the channels the vehicle uses: another station's joystick).
@@ -249,27 +243,16 @@ class FlySession:
         self._t0 = self.clock.now()
         self._frame: Any = None
         self._now_us = 0
-        self._failed_solves = 0
+        self._failed_solves = FailedSolves(mission.fly.max_failed_solves)
         self._rec: FlyRecorder | None = None
         self._loop_t0 = time.perf_counter()
         self._we_armed = False
-        self._last_target: int | None = None
         self._t_end = 0.0
         self._progress: Any = None
         self._on_event: Any = None
         self._sigint = _SigintLatch()
-        self._params: dict[str, float] = {}
         self._refusals: list[str] = []
-        self._acks: list[tuple[int, int]] = []  # (command, MAV_RESULT) from the vehicle, in order
-        self._foreign: list[str] = []  # another station's pilot input, described
-        self._sent: collections.deque[tuple[int, tuple[int, ...]]] = collections.deque()
-        self._foreign_rc = 0  # RC_CHANNELS in a row that fly did not send
-        self._last_arm_text = ""  # the vehicle's latest "Arm:" / "PreArm:" STATUSTEXT
-        self._text_chunks: dict[int, list[str]] = {}
-        self._battery: float | None = None  # low-passed voltage, V
-        self._battery_stamp: int | None = None
-        self._battery_reported = False  # a SYS_STATUS came (with or without a voltage)
-        self._battery_from_sys_status = False  # ... with a voltage (then BATTERY_STATUS is not used)
+        self.state = VehicleState()  # what the vehicle has said (parameters, acks, battery, texts)
         self._t_armed: float | None = None
         self._next_rates = 0.0
         self._rate_refreshes = 0
@@ -299,6 +282,7 @@ class FlySession:
         self.telemetry = TelemetrySensors(mission.sensors, mission.estimation)
         self._model_dock: HeaveDock = mission.build_dock()
         self.dock: HeaveDock | TrackedDock = self._model_dock
+        self._landing: LandingTargetSource | None = None
         if mission.dock.source == "mavlink":
             self.dock = TrackedDock(self._model_dock)
         elif mission.dock.source == "camera":
@@ -307,6 +291,8 @@ class FlySession:
         self.flow = mission.build_flow()
         self.autopilot = build_autopilot(mission, self.vehicle, self.dock, controller)
         self.actuators = ArduSubActuators(self.vehicle)  # what fly sends: ArduSub's channel path
+        if isinstance(self.dock, TrackedDock) and mission.dock.source == "mavlink":
+            self._landing = LandingTargetSource(self.dock, self.telemetry, mission.fly.stale_abort_s)
 
     # ------------------------------------------------------------------------------------
     def run(self, progress=None, on_event=None) -> FlyResult:
@@ -404,102 +390,21 @@ class FlySession:
         return out
 
     def _take_telemetry(self, marker: str, value: int = 0) -> int:
-        """The messages received since the last call into :attr:`telemetry`; returns now (us,
-        the tlog's clock).  The link marks the moment in the tlog (for replay).
-
-        Also taken here: the vehicle's STATUSTEXT (shown and recorded: pre-arm checks,
-        failsafes), PARAM_VALUE, COMMAND_ACK, the battery voltage, and signs of another
-        station flying (its pilot input on our link; RC_CHANNELS that are not ours)."""
+        """The messages received since the last call into :attr:`telemetry` and :attr:`state`
+        (:class:`auvdock.fly.vehicle_state.VehicleState`: parameters, acks, battery, the vehicle's
+        texts, another station flying); returns now (us, the tlog's clock).  The link marks the
+        moment in the tlog (for replay)."""
         now_us, messages = self.link.drain(marker, value)
         self.telemetry.feed(messages)
-        vehicle = getattr(self.link, "target_system", 1)
-        for stamp, msg in messages:
-            mtype = msg.get_type()
-            if mtype in PILOT_INPUT_TYPES and msg.get_srcSystem() != vehicle:
-                self._foreign.append(f"pilot input from system {msg.get_srcSystem()} ({mtype})")
-            elif mtype == "STATUSTEXT":
-                text = self._statustext(msg)
-                if text is None:
-                    continue
-                self._event(f"vehicle: {text}")
-                if text.startswith(("Arm:", "PreArm:")):
-                    self._last_arm_text = text
-            elif mtype == "PARAM_VALUE":
-                name = msg.param_id.decode() if isinstance(msg.param_id, bytes) else str(msg.param_id)
-                self._params[name.rstrip("\x00")] = float(msg.param_value)
-            elif mtype == "COMMAND_ACK":
-                self._acks.append((int(msg.command), int(msg.result)))
-            elif mtype in ("SYS_STATUS", "BATTERY_STATUS"):
-                self._take_battery(stamp, msg)
-            elif mtype == "RC_CHANNELS":
-                self._check_rc_channels(stamp, msg)
+        for text in self.state.feed(messages, getattr(self.link, "target_system", 1)):
+            self._event(text)
         return now_us
-
-    def _statustext(self, msg: Any) -> str | None:
-        """The vehicle's text, its chunks joined (ArduPilot sends a text longer than 50 bytes in
-        chunks that share an ``id``, the last one shorter than 50); None until it is whole."""
-        text = msg.text if isinstance(msg.text, str) else msg.text.decode(errors="replace")
-        text_id = int(getattr(msg, "id", 0) or 0)
-        if text_id == 0:
-            return text.strip()
-        parts = self._text_chunks.setdefault(text_id, [])
-        parts.append(text)
-        if len(text.encode()) >= 50 and len(parts) < 8:
-            return None
-        del self._text_chunks[text_id]
-        return "".join(parts).strip()
-
-    def _take_battery(self, stamp: int, msg: Any) -> None:
-        """Low-pass the battery voltage (SYS_STATUS voltage_battery, else BATTERY_STATUS cell sum)."""
-        if msg.get_type() == "SYS_STATUS":
-            self._battery_reported = True
-            if msg.voltage_battery in (0, 65535):  # no battery monitor (ArduPilot's BATT_MONITOR 0)
-                return
-            v = msg.voltage_battery / 1000.0
-            self._battery_from_sys_status = True
-        else:
-            if self._battery_from_sys_status:
-                return  # SYS_STATUS first
-            cells = [c for c in msg.voltages if c not in (0, 65535)]
-            if not cells:
-                return
-            v = sum(cells) / 1000.0
-        if self._battery is None or self._battery_stamp is None:
-            self._battery = v
-        else:
-            a = min(1.0, max(0.0, (stamp - self._battery_stamp) * 1e-6 / BATTERY_FILTER_S))
-            self._battery += a * (v - self._battery)
-        self._battery_stamp = stamp
-
-    def _check_rc_channels(self, stamp: int, msg: Any) -> None:
-        """Count RC_CHANNELS whose channels 1..6 fly did not send within SENT_WINDOW_US: another
-        station (e.g. a joystick in QGroundControl or Cockpit with our system id) flying too."""
-        if not self._sent or stamp - self._sent[0][0] < SENT_WINDOW_US // 2:
-            return  # too early to tell
-        shown = tuple(int(getattr(msg, f"chan{i}_raw")) for i in range(1, 7))
-        recent = [ch for t, ch in self._sent if t >= stamp - SENT_WINDOW_US]
-        if not recent:
-            recent = [self._sent[-1][1]]
-        if shown in recent:
-            self._foreign_rc = 0
-            return
-        self._foreign_rc += 1
-        if self._foreign_rc >= FOREIGN_CHANNELS_IN_A_ROW:
-            ours = recent[-1]
-            diff = max(range(6), key=lambda i: abs(shown[i] - ours[i]))  # the channel most unlike ours
-            self._foreign.append(
-                f"the vehicle uses channel {diff + 1} = {shown[diff]} us where fly sends {ours[diff]} us "
-                "(RC_CHANNELS): another ground station with our system id is flying"
-            )
 
     def _send_channels(self, channels: Any) -> None:
         """RC overrides for channels 1..6, remembered (the RC_CHANNELS check compares with them)."""
         ch = tuple(int(round(c)) for c in channels)
         self.link.send_override(ch)
-        now_us = int(self.clock.time() * 1e6)
-        self._sent.append((now_us, ch))
-        while len(self._sent) > 1 and self._sent[1][0] < now_us - 2 * SENT_WINDOW_US:
-            self._sent.popleft()
+        self.state.sent_channels(int(self.clock.time() * 1e6), ch)
 
     def _send_neutral(self) -> None:
         self._send_channels(NEUTRAL_CHANNELS)
@@ -515,20 +420,20 @@ class FlySession:
         next_ask = clock.now()
         while clock.now() < deadline:
             if clock.now() >= next_ask:  # a few at a time: ArduPilot queues only a few requests
-                missing = [n for n in names if n not in self._params]
+                missing = [n for n in names if n not in self.state.params]
                 self.link.request_parameters(missing[:PARAM_BATCH])
                 next_ask = clock.now() + PARAM_BATCH_PERIOD_S
             self._send_neutral()
             self._take_telemetry("auvd_param")
-            if all(any(n in self._params for n in g) for g in wanted) and (
-                all(n in self._params for n in PRESSURE_PARAMETERS) or clock.now() >= deadline - 1.0
+            if all(any(n in self.state.params for n in g) for g in wanted) and (
+                all(n in self.state.params for n in PRESSURE_PARAMETERS) or clock.now() >= deadline - 1.0
             ):
                 break
             clock.sleep(self.dt)
-        self._event(describe(self._params))
-        self._event(self.telemetry.set_pressure_reference(self._params))
+        self._event(describe(self.state.params))
+        self._event(self.telemetry.set_pressure_reference(self.state.params))
         self._refusals = check_parameters(
-            self._params, sysid=getattr(self.link, "sysid", 255), dt=self.dt, expected=fly.parameters
+            self.state.params, sysid=getattr(self.link, "sysid", 255), dt=self.dt, expected=fly.parameters
         )
         for problem in self._refusals:
             self._event(f"parameter check: {problem}")
@@ -539,7 +444,7 @@ class FlySession:
         out = self.telemetry.missing()
         if self.telemetry.measured_depth() is None:
             out.append("SCALED_PRESSURE2 or SCALED_PRESSURE or VFR_HUD")
-        if self.mission.fly.min_battery_v > 0 and not self._battery_reported:
+        if self.mission.fly.min_battery_v > 0 and not self.state.battery_reported:
             out.append("SYS_STATUS (battery)")
         return out
 
@@ -596,43 +501,13 @@ class FlySession:
         inside the geofence and near the mission's start depth, the dock inside the geofence,
         the battery above its floor.  With --arm any problem refuses to arm (one line, all of
         them in the events); a dry run reports them and goes on."""
-        fly = self.mission.fly
-        fence = fly.geofence
-        problems = list(self._refusals)
-        measured = self.telemetry.measured_depth()
-        if measured is not None:
-            depth, source = measured
-            outside = geofence_violation(fence, depth, None)
-            if outside is not None:
-                problems.append(f"{outside} ({source})")
-            start = float(self.mission.start_state()[2])
-            if abs(depth - start) > fly.start_depth_tolerance_m:
-                problems.append(
-                    f"depth {depth:.2f} m ({source}), but the mission starts at {start:.2f} m: bring "
-                    f"the vehicle within {fly.start_depth_tolerance_m:g} m of it "
-                    "(fly.start_depth_tolerance_m)"
-                )
-        p_dock = np.asarray(self._model_dock.position(0.0), dtype=float)
-        p0 = np.asarray(self.mission.start_state()[0:3], dtype=float)
-        dock_dist = float(np.hypot(*(p_dock[0:2] - p0[0:2])))
-        if dock_dist > fence.max_distance_m:
-            problems.append(
-                f"the dock is {dock_dist:.2f} m from the start, beyond fly.geofence.max_distance_m "
-                f"{fence.max_distance_m:g} m"
-            )
-        if not fence.min_depth_m <= p_dock[2] <= fence.max_depth_m:
-            problems.append(
-                f"the dock's depth {p_dock[2]:.2f} m is outside fly.geofence "
-                f"[{fence.min_depth_m:g}, {fence.max_depth_m:g}] m"
-            )
-        floor = fly.min_battery_v
-        if floor > 0 and self._battery is None:
-            problems.append(
-                "battery: the vehicle reports no voltage (SYS_STATUS; is BATT_MONITOR set?); "
-                "set fly.min_battery_v: 0 to fly without a floor"
-            )
-        elif floor > 0 and self._battery < floor:
-            problems.append(f"battery {self._battery:.2f} V, below the floor {floor:g} V (fly.min_battery_v)")
+        problems = preflight_problems(
+            self.mission,
+            self._refusals,
+            self.telemetry.measured_depth(),
+            np.asarray(self._model_dock.position(0.0), dtype=float),
+            self.state.battery_v,
+        )
         if not problems:
             self._event("pre-flight checks pass")
             return
@@ -690,8 +565,8 @@ class FlySession:
         if not self._await("auvd_arm", lambda: self._vehicle_mode()[0], limit,
                            resend=lambda: self.link.send_arm(True), every_s=ARM_RETRY_S):  # fmt: skip
             arm = mavutil.mavlink.MAV_CMD_COMPONENT_ARM_DISARM
-            results = [r for c, r in self._acks if c == arm]
-            why = self._last_arm_text or (f"MAV_RESULT {results[-1]}" if results else "no COMMAND_ACK")
+            results = [r for c, r in self.state.acks if c == arm]
+            why = self.state.last_arm_text or (f"MAV_RESULT {results[-1]}" if results else "no COMMAND_ACK")
             raise FlyAbortError(f"arming refused for {limit:g} s (fly.arm_timeout_s): {why}")
         self._t_armed = self.clock.now()
         self._event("armed")
@@ -762,20 +637,13 @@ class FlySession:
 
     # -- safety checks --------------------------------------------------------------------
     def _check_takeover(self) -> None:
-        """Someone else flies: another station's pilot input, or (once we armed) a disarm or a
-        mode change fly did not command.  Raises FlyTakeoverError."""
-        if self._foreign:
-            raise FlyTakeoverError(self._foreign[0])
-        if not self._we_armed:
-            return
+        """Someone else flies (:func:`auvdock.fly.safety.takeover_reason`): raises FlyTakeoverError."""
         armed, mode = self._vehicle_mode()
-        if not armed:
-            said = self._vehicle_text_since_arming()
-            why = f" (the vehicle said: {said})" if said else ""
-            raise FlyTakeoverError(f"the vehicle was disarmed, not by fly{why}")
-        if mode != MODES["MANUAL"]:
-            name = next((k for k, v in MODES.items() if v == mode), f"mode {mode}")
-            raise FlyTakeoverError(f"the vehicle changed to {name}, not by fly")
+        why = takeover_reason(
+            self.state.foreign, self._we_armed, armed, mode, self._vehicle_text_since_arming()
+        )
+        if why is not None:
+            raise FlyTakeoverError(why)
 
     def _vehicle_text_since_arming(self) -> str:
         """The vehicle's latest STATUSTEXT since arming ("" if none)."""
@@ -787,15 +655,11 @@ class FlySession:
         return ""
 
     def _check_limits(self) -> None:
-        """The battery floor (low-passed SYS_STATUS voltage) and the time limit since arming."""
-        fly = self.mission.fly
-        if fly.min_battery_v > 0 and self._battery is not None and self._battery < fly.min_battery_v:
-            raise FlyAbortError(
-                f"battery {self._battery:.2f} V, below the floor {fly.min_battery_v:g} V (fly.min_battery_v)"
-            )
-        limit = fly.time_limit_s if fly.time_limit_s is not None else self.timeout_s + 60.0
-        if self._t_armed is not None and self.clock.now() - self._t_armed > limit:
-            raise FlyAbortError(f"time limit: {limit:g} s since arming (fly.time_limit_s)")
+        """The battery floor and the time limit since arming (:func:`auvdock.fly.safety.limit_reason`)."""
+        since = None if self._t_armed is None else self.clock.now() - self._t_armed
+        why = limit_reason(self.mission.fly, self.state.battery_v, since, self.timeout_s)
+        if why is not None:
+            raise FlyAbortError(why)
 
     def _refresh_rates(self) -> None:
         """Re-request the telemetry rates every ``fly.rates_refresh_s`` (not waited for): a ground
@@ -810,13 +674,14 @@ class FlySession:
         self._next_rates = now + self.mission.fly.rates_refresh_s
 
     def _check_telemetry(self) -> bool:
-        """Stale telemetry: neutral (returns True: skip this step); lost: abort."""
+        """Stale telemetry: True (no control step on old readings; the loop sends neutral); lost: abort."""
         stale = self._stale()
         fly = self.mission.fly
-        if stale > fly.stale_abort_s:
+        action = staleness(fly, stale)
+        if action == "abort":
             names = [n for n, age in self.telemetry.ages(self._now_us).items() if age > fly.stale_abort_s]
             raise FlyAbortError(f"telemetry lost: no {', '.join(names)} for {stale:.1f} s")
-        if stale > fly.stale_neutral_s:  # (the loop sends neutral)
+        if action == "neutral":
             if not self.events or not self.events[-1][1].startswith("telemetry stale"):
                 self._event(f"telemetry stale ({stale:.2f} s): neutral")
             return True
@@ -824,13 +689,9 @@ class FlySession:
 
     def _check_solves(self, status: int) -> None:
         """Abort after ``fly.max_failed_solves`` steps in a row without a converged solve."""
-        self._failed_solves = self._failed_solves + 1 if status in FAILURE_CODES else 0
-        limit = self.mission.fly.max_failed_solves
-        if self._failed_solves >= limit:
-            raise FlyAbortError(
-                f"controller: {limit} steps in a row without a converged solve "
-                f"(last status {STATUS_NAMES.get(status, status)})"
-            )
+        why = self._failed_solves.update(status)
+        if why is not None:
+            raise FlyAbortError(why)
 
     def _check_geofence(self) -> None:
         """The geofence on measured values: the pressure sensor's depth, the vehicle's own
@@ -857,36 +718,10 @@ class FlySession:
 
     def _check_landing_target(self, t: float, x: np.ndarray) -> None:
         """dock.source: mavlink -- re-anchor the dock; abort without (or after losing) LANDING_TARGET."""
-        limit = self.mission.fly.stale_abort_s
-        age = self._landing_target(t, x)
-        if self.dock.measurements == 0 and t > limit:
-            raise FlyAbortError(f"no LANDING_TARGET with a position within {limit:g} s")
-        if self.dock.measurements and age > limit:
-            raise FlyAbortError(f"dock lost: no LANDING_TARGET for {age:.1f} s")
-
-    def _landing_target(self, t: float, x: np.ndarray) -> float:
-        """Re-anchor the dock from the latest LANDING_TARGET; returns its age (s).
-
-        Accepted frames: MAV_FRAME_BODY_FRD (x, y, z from the vehicle in {b}) and
-        MAV_FRAME_LOCAL_NED (the autopilot's NED frame, mapped to the mission frame).
-        Messages without ``position_valid`` are ignored.
-        """
-        lt, stamp = self.telemetry.latest("LANDING_TARGET")
-        if lt is None or not getattr(lt, "position_valid", 0):
-            return float("inf")
-        age = (self._now_us - stamp) * 1e-6
-        if id(lt) == self._last_target:
-            return age
-        self._last_target = id(lt)
-        rel = np.array([lt.x, lt.y, lt.z])
-        if lt.frame == mavutil.mavlink.MAV_FRAME_BODY_FRD:
-            p = x[POS] + rotation_zyx(*map(float, x[ATT])) @ rel
-        elif lt.frame == mavutil.mavlink.MAV_FRAME_LOCAL_NED:
-            p = self._frame.position(rel)
-        else:
-            return float("inf")
-        self.dock.update(t, p)
-        return age
+        assert self._landing is not None
+        why = self._landing.lost(t, x, self._now_us, self._frame)
+        if why is not None:
+            raise FlyAbortError(why)
 
     # -- telemetry --------------------------------------------------------------------------
     def _stale(self) -> float:
@@ -956,7 +791,7 @@ class FlySession:
                     "events_json": rec.events_json(self.events),
                     "armed_by_us": self._we_armed,
                     "solver_stderr_lines": self._stderr.lines,
-                    "vehicle_parameters_json": json.dumps(self._params, sort_keys=True),
+                    "vehicle_parameters_json": json.dumps(self.state.params, sort_keys=True),
                 },
             )
             rec.finish(outcome)
