@@ -39,7 +39,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -52,9 +52,13 @@ from auvdock.fly.units import (
     WATER_DENSITY,
     depth_from_pressure,
 )
+from auvdock.sensing.errors import sensor_errors
 from auvdock.sensing.readings import Reading
 from auvdock.sensing.settings import SensorSettings
 from auvdock.vehicle.geometry import Rz, rotation_zyx, wrap_angle
+
+if TYPE_CHECKING:
+    from auvdock.config.mission import GeofenceSpec
 
 __all__ = [
     "TELEMETRY_MESSAGES",
@@ -127,7 +131,7 @@ class MissionFrame:
         )
 
 
-def geofence_violation(fence: Any, depth_m: float, distance_m: float | None) -> str | None:
+def geofence_violation(fence: GeofenceSpec, depth_m: float, distance_m: float | None) -> str | None:
     """Why a measured depth (m, the pressure sensor's) and horizontal distance from the start (m,
     the vehicle's own position estimate; None: unknown) are outside ``fly.geofence``, or None."""
     if distance_m is not None and distance_m > fence.max_distance_m:
@@ -163,15 +167,11 @@ class TelemetrySensors:
         self._surface_hpa = {m: ATMOSPHERE_HPA for m in _PRESSURE_GROUND}
         self._density = WATER_DENSITY
         self.specific_force = np.full(3, np.nan)
-        s = sensors
-        self._std = {
-            "attitude": np.array([s.ahrs.roll_pitch_std_rad] * 2 + [s.ahrs.yaw_std_rad]),
-            "gyro": np.full(3, math.hypot(s.imu.gyro_noise_rad_s, GYRO_LSB_STD_RAD_S)),
-            "accel": np.full(3, math.hypot(s.imu.accel_noise_m_s2, ACCEL_LSB_STD_M_S2)),
-            "depth": np.array([s.depth.std_m]),
-            "position": np.full(3, s.position.figures()[2]),
-            "dvl": np.full(3, s.dvl.std_m_s),
-        }
+        # each reading's noise: the sensor's own (auvdock.sensing.errors), and for the IMU the
+        # resolution of its MAVLink fields (mG, mrad/s) on top
+        self._std = {kind: err.noise_std.copy() for kind, err in sensor_errors(sensors).items()}
+        self._std["gyro"] = np.hypot(self._std["gyro"], GYRO_LSB_STD_RAD_S)
+        self._std["accel"] = np.hypot(self._std["accel"], ACCEL_LSB_STD_M_S2)
 
     @property
     def required(self) -> tuple[tuple[str, ...], ...]:
@@ -269,10 +269,16 @@ class TelemetrySensors:
         self._new.clear()  # readings start after the frame
         return self.frame
 
+    def _mission_frame(self) -> MissionFrame:
+        """:attr:`frame`, which :meth:`set_frame` sets before any state or reading is asked for."""
+        if self.frame is None:
+            raise RuntimeError("telemetry: no mission frame yet (call set_frame first)")
+        return self.frame
+
     def describe_frame(self) -> str:
         att, _ = self.latest("ATTITUDE")
         pos, _ = self.latest("LOCAL_POSITION_NED")
-        return self.frame.describe(np.array([pos.x, pos.y, pos.z]), float(att.yaw))
+        return self._mission_frame().describe(np.array([pos.x, pos.y, pos.z]), float(att.yaw))
 
     def state(self) -> np.ndarray:
         """The autopilot's estimate of the state (12,) in the mission frame (latest ATTITUDE and
@@ -280,7 +286,7 @@ class TelemetrySensors:
         ``estimation: truth`` the controller too."""
         att, _ = self.latest("ATTITUDE")
         pos, _ = self.latest("LOCAL_POSITION_NED")
-        return self.frame.state(att, pos)
+        return self._mission_frame().state(att, pos)
 
     # -- readings -----------------------------------------------------------------------------
     def readings(self, t: float, now_us: int | None = None) -> list[Reading]:
@@ -300,7 +306,7 @@ class TelemetrySensors:
             return t - max(0, now_us - fresh[mtype][1]) * 1e-6
 
         out: list[Reading] = []
-        frame = self.frame
+        frame = self._mission_frame()
         std = self._std
         att = new.get("ATTITUDE")
         if att is not None:
@@ -315,10 +321,11 @@ class TelemetrySensors:
             self.specific_force = f_b
             out.append(Reading("gyro", at(imu_type), gyro, std["gyro"].copy()))
             out.append(Reading("accel", at(imu_type), f_b.copy(), std["accel"].copy()))
-        depth_msg = new.get(self._depth_type) if self._depth_type is not None else None
-        if depth_msg is not None:
-            d = frame.p_mission0[2] + (self._depth_of(depth_msg) - self._depth0)
-            out.append(Reading("depth", at(self._depth_type), np.array([d]), std["depth"].copy()))
+        depth_type, depth0 = self._depth_type, self._depth0  # set together by set_frame
+        depth_msg = new.get(depth_type) if depth_type is not None else None
+        if depth_msg is not None and depth_type is not None and depth0 is not None:
+            d = frame.p_mission0[2] + (self._depth_of(depth_msg) - depth0)
+            out.append(Reading("depth", at(depth_type), np.array([d]), std["depth"].copy()))
         pos = new.get("LOCAL_POSITION_NED")
         if pos is not None and self.sensors.position.source != "none":
             p = frame.position(np.array([pos.x, pos.y, pos.z]))

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from auvdock.sensing.errors import draw_bias, sensor_errors
 from auvdock.sensing.measurements import measure
 from auvdock.sensing.readings import FlowSensing, Reading, Readings
 from auvdock.sensing.settings import SensorSettings
@@ -117,37 +118,13 @@ class SensorSuite:
     def __init__(self, settings: SensorSettings, vehicle: Vehicle, seed: int) -> None:
         self.vehicle = vehicle
         self.rng = np.random.default_rng([int(seed), 15])
-        s = settings
-        chans = [
-            _Channel(
-                "attitude",
-                s.ahrs.rate_hz,
-                s.ahrs.latency_s,
-                np.array([s.ahrs.roll_pitch_std_rad] * 2 + [s.ahrs.yaw_std_rad]),
-                np.zeros(3),
-            ),
-            _Channel(
-                "gyro",
-                s.imu.rate_hz,
-                s.imu.latency_s,
-                np.full(3, s.imu.gyro_noise_rad_s),
-                self.rng.normal(0.0, s.imu.gyro_bias_rad_s, 3),
-            ),
-            _Channel(
-                "accel",
-                s.imu.rate_hz,
-                s.imu.latency_s,
-                np.full(3, s.imu.accel_noise_m_s2),
-                self.rng.normal(0.0, s.imu.accel_bias_m_s2, 3),
-            ),
-            _Channel("depth", s.depth.rate_hz, s.depth.latency_s, np.array([s.depth.std_m]), np.zeros(1)),
-        ]
-        if s.position.source != "none":
-            rate, latency, std = s.position.figures()
-            chans.append(_Channel("position", rate, latency, np.full(3, std), np.zeros(3)))
-        if s.dvl.enabled:
+        chans = []
+        for err in sensor_errors(settings).values():
+            if not err.enabled:
+                continue
+            # the sensor's stated std is its white noise: the bias is what a filter must live with
             chans.append(
-                _Channel("dvl", s.dvl.rate_hz, s.dvl.latency_s, np.full(3, s.dvl.std_m_s), np.zeros(3))
+                _Channel(err.kind, err.rate_hz, err.latency_s, err.noise_std, draw_bias(err, self.rng))
             )
         self.channels = chans
 

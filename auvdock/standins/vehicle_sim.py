@@ -70,13 +70,14 @@ Messages sent
     velocity (m/s); airspeed and groundspeed the horizontal speed over ground, throttle 0.
 
   Sensor errors (``noise=True``, seeded by ``seed``, default the mission's seed) are those of
-  the mission's sensor suite (``mission.sensors``, the same figures ``sim`` simulates with
-  ``estimation: filter``): attitude ``ahrs.roll_pitch_std_rad`` / ``ahrs.yaw_std_rad``; the
-  IMU's white noise ``imu.accel_noise_m_s2`` / ``imu.gyro_noise_rad_s`` plus a constant bias
-  per run drawn with ``imu.accel_bias_m_s2`` / ``imu.gyro_bias_rad_s``; depth
-  ``depth.std_m``; LOCAL_POSITION_NED's position the position source's noise
-  (``position.figures()``) and its velocity ``dvl.std_m_s``.  ATTITUDE's body rates are the
-  autopilot's bias-corrected rates (gyro white noise only).  Default off.
+  the mission's sensor suite, each defined once in :mod:`auvdock.sensing.errors` (the same
+  definitions ``sim`` simulates with ``estimation: filter``): attitude
+  ``ahrs.roll_pitch_std_rad`` / ``ahrs.yaw_std_rad``; the IMU's white noise
+  ``imu.accel_noise_m_s2`` / ``imu.gyro_noise_rad_s`` plus a constant bias per run drawn with
+  ``imu.accel_bias_m_s2`` / ``imu.gyro_bias_rad_s``; depth ``depth.std_m``;
+  LOCAL_POSITION_NED's position the position source's noise (``position.figures()``) and its
+  velocity ``dvl.std_m_s``.  ATTITUDE's body rates are the autopilot's bias-corrected rates
+  (gyro white noise only).  Default off.
 * ``COMMAND_ACK`` for every command (below), ``STATUSTEXT`` "Arming motors",
   "Disarming motors" and "Lost manual control" (severity CRITICAL, on the failsafe).
 
@@ -181,6 +182,7 @@ from auvdock.config.mission import Mission, load_mission
 from auvdock.fly.units import ATMOSPHERE_HPA, MG_M_S2, MRAD_S, WATER_DENSITY, pressure_hpa
 from auvdock.runtime.clock import Clock, wall_clock
 from auvdock.runtime.interrupts import SigintDeferred
+from auvdock.sensing.errors import draw_bias, sensor_errors
 from auvdock.vehicle.ardusub import (
     MODES,
     NEUTRAL_CHANNELS,
@@ -436,11 +438,10 @@ class VehicleSim:
                 dt=self.dt,
             )
         self._rng = np.random.default_rng(mission.seed if seed is None else seed)
-        self._sensors = mission.sensors
-        imu = mission.sensors.imu
-        # constant IMU biases of this run (drawn whether or not noise is on: same seed, same stream)
-        self._bias_a = self._rng.normal(0.0, imu.accel_bias_m_s2, 3)
-        self._bias_g = self._rng.normal(0.0, imu.gyro_bias_rad_s, 3)
+        # each sensor's errors, defined once (auvdock.sensing.errors); the constant biases of this
+        # run are drawn whether or not noise is on (same seed, same stream)
+        self._errors = sensor_errors(mission.sensors)
+        self._bias = {kind: draw_bias(err, self._rng) for kind, err in self._errors.items()}
 
         self._lock = threading.RLock()
         self._stop_event = self.clock.event()
@@ -1035,10 +1036,12 @@ class VehicleSim:
             1,
         )
 
-    def _n(self, std: float, size: int | None = None) -> Any:
-        if not self.noise or std <= 0:
-            return 0.0 if size is None else np.zeros(size)
-        return self._rng.normal(0.0, std, size)
+    def _noise(self, kind: str) -> np.ndarray:
+        """One draw of sensor ``kind``'s white noise (zeros with noise off)."""
+        std = self._errors[kind].noise_std
+        if not self.noise or not np.any(std > 0):
+            return np.zeros(std.shape)
+        return self._rng.normal(0.0, std, std.shape)
 
     def _time_boot_ms(self) -> int:
         return int(round(self._k * self.dt * 1000.0)) % (1 << 32)
@@ -1083,11 +1086,8 @@ class VehicleSim:
 
     def _send_attitude(self) -> None:
         x = self._x
-        ahrs = self._sensors.ahrs
-        att = x[ATT] + np.array(
-            [self._n(ahrs.roll_pitch_std_rad), self._n(ahrs.roll_pitch_std_rad), self._n(ahrs.yaw_std_rad)]
-        )
-        w = x[ANG] + self._n(self._sensors.imu.gyro_noise_rad_s, 3)
+        att = x[ATT] + self._noise("attitude")
+        w = x[ANG] + self._noise("gyro")  # the autopilot's bias-corrected rates
         self._send(
             self._conn.mav.attitude_send,
             self._time_boot_ms(),
@@ -1101,12 +1101,12 @@ class VehicleSim:
 
     def _send_local_position_ned(self) -> None:
         x = self._x
-        p = x[POS] + self._n(self._sensors.position.figures()[2], 3)
-        v = self._rotation(x) @ x[LIN] + self._n(self._sensors.dvl.std_m_s, 3)
+        p = x[POS] + self._noise("position")
+        v = self._rotation(x) @ x[LIN] + self._noise("dvl")
         self._send(self._conn.mav.local_position_ned_send, self._time_boot_ms(), *map(float, (*p, *v)))
 
     def _send_scaled_pressure2(self) -> None:
-        depth = float(self._x[2]) + float(self._n(self._sensors.depth.std_m))
+        depth = float(self._x[2]) + float(self._noise("depth")[0])
         self._send(
             self._conn.mav.scaled_pressure2_send,
             self._time_boot_ms(),
@@ -1118,7 +1118,7 @@ class VehicleSim:
     def _send_vfr_hud(self) -> None:
         x = self._x
         v_ned = self._rotation(x) @ x[LIN]
-        depth = float(x[2]) + float(self._n(self._sensors.depth.std_m))
+        depth = float(x[2]) + float(self._noise("depth")[0])
         speed = float(np.hypot(v_ned[0], v_ned[1]))
         heading = int(math.degrees(float(x[5])) % 360.0)
         self._send(self._conn.mav.vfr_hud_send, speed, speed, heading, 0, -depth, float(-v_ned[2]))
@@ -1126,10 +1126,9 @@ class VehicleSim:
     def _imu(self) -> tuple[np.ndarray, np.ndarray]:
         """(specific force in {b} m/s^2, body rates rad/s): the last physics step's mean acceleration."""
         f_b, w = self._plant.imu()
-        imu = self._sensors.imu
         if self.noise:
-            f_b = f_b + self._bias_a + self._n(imu.accel_noise_m_s2, 3)
-            w = w + self._bias_g + self._n(imu.gyro_noise_rad_s, 3)
+            f_b = f_b + self._bias["accel"] + self._noise("accel")
+            w = w + self._bias["gyro"] + self._noise("gyro")
         return f_b, w
 
     def _send_imu(self, name: str, f_b: np.ndarray, w: np.ndarray) -> None:
