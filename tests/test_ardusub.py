@@ -27,7 +27,7 @@ def B():
 
 def test_channel_order_and_factor_signs(B) -> None:
     assert CHANNELS == ("pitch", "roll", "throttle", "yaw", "forward", "lateral")
-    # horizontal thrusters: forward, lateral and yaw factors have the signs of -B (parameters.md)
+    # horizontal thrusters: forward, lateral and yaw factors have the signs of -B (docs/parameter-sources.md)
     for col, row in ((4, 0), (5, 1), (3, 5)):
         for i in range(4):
             assert MOTOR_FACTORS[i, col] == np.sign(-B[row, i])

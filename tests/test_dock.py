@@ -9,7 +9,7 @@ import pytest
 
 from auvdock.world.dock import HeaveDock
 
-# parameters.md section 3: dock at (2, 3) m around z = 5 m, A = 0.5 m, w = 0.1 rad/s
+# docs/parameter-sources.md section 3: dock at (2, 3) m around z = 5 m, A = 0.5 m, w = 0.1 rad/s
 PAPER = HeaveDock(
     position_ned_m=(2.0, 3.0, 5.0), heading_rad=0.0, amplitude_m=0.5, angular_frequency_rad_s=0.1
 )

@@ -38,7 +38,7 @@ from auvdock.world.flow import ConstantCurrent
 
 DT = 0.05
 V_C = np.array([0.5, 0.0, 0.0])  # current, NED, m/s
-# estimator defaults (mission.EstimatorSpec / parameters.md section 5)
+# estimator defaults (mission.EstimatorSpec / docs/parameter-sources.md section 5)
 PRIOR_STD, Q_F, ACC_VAR, DR_VAR = 3.0, 1e-12, 2.029e-5, 2e-6
 R_INV = np.diag(1.0 / np.array([ACC_VAR] * 3 + [DR_VAR]))
 # sensor defaults (mission.SensorsSpec)

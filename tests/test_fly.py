@@ -4,7 +4,7 @@ Everything runs in simulated time (tests/helpers/loopback.py): the vehicle simul
 thread, the link's threads and the fly command (through the CLI, in the test's thread)
 share one :class:`auvdock.runtime.clock.SimClock`, so they run in lockstep, faster than real time
 and deterministically; every time below is simulated seconds.  Ctrl-C from outside, at
-random moments, is tests/test_fly_sigint.py (real processes on the wall clock).
+every moment of a flight, is tests/test_fly_sigint.py (real processes on the wall clock).
 """
 
 from __future__ import annotations
@@ -78,6 +78,7 @@ def test_bad_port_is_one_line(loop, tmp_path, command, port, message) -> None:
     assert len(lines) == 1 and lines[0].startswith(f"error: --port {port}: ") and message in lines[0]
 
 
+@pytest.mark.slow
 def test_fly_arm_docks_in_the_tank(loop, tmp_path) -> None:
     """vehicle-sim + fly --arm with Oracle MPC docks in still water (tank mission, 0.6 Hz heave)."""
     sim, port = loop.vehicle()
@@ -95,7 +96,7 @@ def test_fly_arm_docks_in_the_tank(loop, tmp_path) -> None:
     assert r.attrs["complete"]
     out = r.outcome()
     assert out["docked"] and out["reason"] == "docked"
-    print(f"docked at {out['time_to_dock_s']:.2f} s of simulated time")  # the README quotes it (-s)
+    print(f"docked at {out['time_to_dock_s']:.2f} s of simulated time")  # docs/commands/vehicle-sim.md quotes it (-s)
     assert "vehicle: Arming motors" in out["events_json"]
     assert out["closest_approach_m"] <= 0.05
     # the state in which docking was declared is the file's last row, within the tolerance
@@ -223,7 +224,9 @@ def test_no_vehicle_clear_error(loop, tmp_path) -> None:
     port = free_port()
     res = loop.fly(port, tmp_path, "--connect-timeout", "1")
     assert res.exit_code == 3
-    assert res.stderr.strip() == f"aborted: no ArduSub heartbeat on udpin:127.0.0.1:{port} within 1 s"
+    assert res.stderr.strip().startswith(  # and what to check (tests/test_defects_fly.py)
+        f"aborted: no ArduSub heartbeat on udpin:127.0.0.1:{port} within 1 s: is `auvdock vehicle-sim`"
+    )
     assert loop.clock.now() == pytest.approx(1.0, abs=0.25)  # simulated: no wall-clock wait
 
 
@@ -239,6 +242,7 @@ def test_flow_estimating_controller_on_truth_is_refused_before_connecting(loop, 
     )
 
 
+@pytest.mark.slow
 def test_dock_from_landing_target(loop, tmp_path) -> None:
     """dock.source: mavlink -- the real dock is 0.3 m east of the model's; LANDING_TARGET leads there.
 

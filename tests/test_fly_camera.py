@@ -8,7 +8,7 @@ Everything runs in simulated time (tests/helpers/loopback.py): the camera's fram
 the frame grabber and the detection thread share the session's SimClock, so rendering and
 detection take no simulated time and the runs are deterministic.  To keep them short the
 docking test renders a 320x240 camera at 5 frames/s (the mission default is 640x480 at
-15 Hz; ``README``'s camera figures are wall-clock rehearsals).
+15 Hz; the docs' camera figures are wall-clock rehearsals).
 """
 
 from __future__ import annotations
@@ -89,7 +89,7 @@ def test_synthetic_camera_docks_in_the_tank_through_a_short_loss(loop, tmp_path)
     assert np.any(r.extras["channels_us"][holding] != 1500)  # not neutral: the buoyant vehicle would rise
     fixes = np.nansum(r.extras["camera_fixes"])
     assert fixes >= 0.9 * 5.0 * (t[-1] - 0.8)  # every frame outside the blackout gives a fix
-    latency = r.extras["camera_latency_s"]  # capture to fix: no simulated time (wall-clock figure in README)
+    latency = r.extras["camera_latency_s"]  # capture to fix: no simulated time (wall-clock figure in the docs)
     assert np.all(latency[np.isfinite(latency)] == 0.0)
 
 

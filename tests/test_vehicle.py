@@ -1,7 +1,7 @@
 """Physics tests of the BlueROV2 Heavy model (auvdock.vehicle).
 
 Every expected value is derived by hand from Fossen's equations and the parameter table of
-parameters.md section 1, not read back from the implementation:
+docs/parameter-sources.md section 1, not read back from the implementation:
 
     M_RB nu_dot + M_A nu_r_dot + C_RB(nu) nu + C_A(nu_r) nu_r + D(nu_r) nu_r + g(eta) = B u,
     nu_r = nu - [R^T v_c; 0],  d/dt (R^T v_c) = -S(nu_2) R^T v_c  (v_c constant in {n}).
@@ -21,7 +21,7 @@ from auvdock.vehicle import VehicleParamsError, load_vehicle
 from auvdock.vehicle.model import Jeta, Rzyx, Tzyx
 from auvdock.world.flow import ConstantCurrent, DoubleGyre
 
-# --- parameters.md section 1 (typed in here, independently of the YAML file) ------------------
+# --- docs/parameter-sources.md section 1 (typed in here, independently of the YAML file) ------------------
 MASS = 13.5
 WEIGHT, BUOYANCY = 112.80, 114.80
 Z_G = 0.02

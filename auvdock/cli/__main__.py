@@ -1,3 +1,6 @@
+"""``python -m auvdock.cli``: the ``auvdock`` command."""
+
 from auvdock.cli import main
 
-main()
+if __name__ == "__main__":
+    main()

@@ -17,6 +17,8 @@ from rich.table import Table
 
 from auvdock.cli.app import (
     app,
+    check_estimation,
+    check_seed,
     console,
     controller_list,
     exit_interrupted,
@@ -35,6 +37,7 @@ def _interrupted(path: Path) -> None:
 def _campaign_outputs(path: Path, out_dir: Path, *, pdf: bool, plots: bool, records=None, attrs=None) -> None:
     """Tables, findings and figures of a compare campaign file, printed and written to ``out_dir``."""
     from auvdock.campaign import SUMMARY_HEADER, check_findings, read_campaign, summary_rows, write_tables
+    from auvdock.campaign.findings import coverage_note
 
     if records is None or attrs is None:
         records, attrs = read_campaign(path)
@@ -56,7 +59,7 @@ def _campaign_outputs(path: Path, out_dir: Path, *, pdf: bool, plots: bool, reco
         )
     )
     ft = Table(
-        title="the paper's findings (parameters.md 5b), explained with this campaign's figures",
+        title="the paper's findings (docs/parameter-sources.md section 5b), explained with this campaign's figures",
         show_lines=True,
     )
     for h in ("finding", "measured here", "verdict", "why it differs"):
@@ -64,6 +67,9 @@ def _campaign_outputs(path: Path, out_dir: Path, *, pdf: bool, plots: bool, reco
     for f in check_findings(records):
         colour = {"holds": "green", "not run": "dim"}.get(f.verdict, "yellow")
         ft.add_row(f.finding, f.measured, f"[{colour}]{f.verdict}[/{colour}]", f.explanation)
+    note = coverage_note(records)
+    if note:
+        ft.caption = note
     console.print(ft)
     written = write_tables(records, out_dir, attrs)
     if plots and records:
@@ -162,7 +168,7 @@ def compare(
         run_plan,
     )
     from auvdock.campaign.display import CampaignProgress
-    from auvdock.campaign.store import check_output
+    from auvdock.campaign.store import check_output, check_resume
     from auvdock.config.catalog import resolve
 
     ctrls = controller_list(controllers, variants=True)
@@ -171,16 +177,19 @@ def compare(
     for m in paths:
         if not m.is_file():
             fail_input(f"{m}: file not found")
+    check_seed(seed)
+    check_estimation(estimation)
     try:
-        if estimation is not None and estimation not in ("truth", "filter"):
-            fail_input(f"--estimation: must be truth or filter (got {estimation!r})")
         specs = campaign_specs(paths, ctrls, seed=seed, timeout_s=timeout, estimation=estimation)
     except (MissionError, ValueError) as e:
         fail_input(str(e))
         raise AssertionError("unreachable") from None
     path = output_dir(out) / "campaign.h5"
+    plan = compare_plan(specs)
     try:
         check_output(path, "compare", resume=resume, force=force)
+        if resume:  # other missions or controllers than the file's: refused, never merged
+            check_resume(path, plan)
     except ResultsFileError as e:
         fail_input(str(e))
     n_jobs = jobs or os.cpu_count() or 1
@@ -206,7 +215,7 @@ def compare(
             console, len(specs), lines=True, label=lambda s: s.run_id.replace("/", " / ")
         ) as bar:
             res = run_plan(
-                compare_plan(specs),
+                plan,
                 path,
                 workers=n_jobs,
                 scheduler=scheduler,

@@ -3,7 +3,7 @@
 The real ArduSub firmware runs in SITL; this command moves its vehicle
 (:class:`auvdock.standins.sitl_physics.SitlPhysics`) and, with ``--camera``, streams the
 camera's view of the true pose as RTP/H.264
-(:class:`auvdock.camera.truth_stream.TruthCameraStream`).  ``docs/sitl.md`` says how to run
+(:class:`auvdock.camera.truth_stream.TruthCameraStream`).  ``docs/commands/sitl-physics.md`` says how to run
 the three programs together.
 
 Output is plain lines (readable in a log file): one when it starts, one per event (SITL

@@ -3,7 +3,7 @@
 A mission names the vehicle, the flow, the dock, the start state, the controller, the
 estimator and sensors, the docking criterion and the output.  Every value has its unit in
 its name or in the field's description; every field except ``name`` has a default (the
-paper's setup, parameters.md).  :func:`load_mission` validates a file and raises
+paper's setup, docs/parameter-sources.md).  :func:`load_mission` validates a file and raises
 :class:`MissionError` -- naming the file, the field path (e.g. ``dock.heave.amplitude_m``)
 and the problem -- on any bad input.
 
@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import numpy as np
 import yaml
@@ -31,6 +31,7 @@ from pydantic import (
 from auvdock.config.schema import NonNegFloat, PosFloat, Strict, Vec3, Vec12, first_error, fixed_len
 from auvdock.config.yamlio import load_yaml_strict
 from auvdock.controllers.registry import controller_names, settings_for, settings_union, split_controller
+from auvdock.controllers.settings import MPCSettings
 from auvdock.controllers.solvers import solver_names
 from auvdock.estimation.flow_filter import EstimatorSettings
 from auvdock.estimation.navigation_filter import NavigationSettings
@@ -39,6 +40,9 @@ from auvdock.vehicle import Vehicle, load_vehicle, preset_names
 from auvdock.vehicle.params import VehicleParamsError
 from auvdock.world.dock import HeaveDock
 from auvdock.world.flow import ConstantCurrent, DoubleGyre, FlowField, StillWater, flow_case, flow_case_names
+
+if TYPE_CHECKING:
+    from auvdock.camera.model import CameraMount
 
 __all__ = [
     "Mission",
@@ -159,6 +163,8 @@ class FlowSpec(Strict):
         if self.type == "constant":
             v = self.velocity_ned_m_s or [0.0, 0.0]
             return ConstantCurrent(float(v[0]), float(v[1]))
+        if self.amplitude_m_s is None or self.period_h is None:  # _one_way's rule; for mypy
+            raise ValueError("type double_gyre needs amplitude_m_s and period_h")
         return DoubleGyre(float(self.amplitude_m_s), float(self.period_h) * 3600.0, float(self.epsilon))
 
 
@@ -337,6 +343,14 @@ class CameraMountSpec(Strict):
         default=[0.0, 0.0, 0.0],
         description="rotation from the forward-looking mount (optical axis = body x), deg (roll, pitch, yaw)",
     )
+
+    def build(self) -> CameraMount:
+        """The camera mount this spec describes."""
+        from auvdock.camera.model import CameraMount
+
+        x, y, z = self.position_body_m
+        roll, pitch, yaw = self.rpy_deg
+        return CameraMount((x, y, z), (roll, pitch, yaw))
 
 
 class SyntheticCameraSpec(Strict):
@@ -637,7 +651,7 @@ class Mission(Strict):
                         node = getattr(node, part)
                         continue
                     section = ".".join(parts[:i]) or "the mission"
-                    if parts[:i] == ("controller",):
+                    if parts[:i] == ("controller",) and isinstance(node, MPCSettings):
                         owners = [n for n, e in CONTROLLERS.items() if part in e.settings.model_fields]
                         if owners:
                             return here, (

@@ -19,7 +19,7 @@ from auvdock.controllers.base import ControlOutput, Estimate, Plan
 from auvdock.controllers.mpc import DockingMPC
 from auvdock.controllers.settings import MPCSettings
 from auvdock.vehicle import Vehicle
-from auvdock.world.dock import HeaveDock
+from auvdock.world.dock import HeaveDock, TrackedDock
 
 __all__ = [
     "NaiveSettings",
@@ -49,7 +49,12 @@ class OracleSettings(MPCSettings):
 
 
 def build_mpc(
-    settings: MPCSettings, vehicle: Vehicle, dock: HeaveDock, prediction: str, solver: str, **kw
+    settings: MPCSettings,
+    vehicle: Vehicle,
+    dock: HeaveDock | TrackedDock,
+    prediction: str,
+    solver: str,
+    **kw,
 ) -> DockingMPC:
     """The MPC of eq. (10) with the given prediction model and (resolved) solver name.
 
@@ -86,7 +91,9 @@ class BaselineMPC:
     _PREDICTION = {"naive": "naive", "kinematic": "kinematic", "oracle": "full"}
     extra_series: dict[str, tuple[int, ...]] = {}
 
-    def __init__(self, settings: MPCSettings, vehicle: Vehicle, dock: HeaveDock, solver: str) -> None:
+    def __init__(
+        self, settings: MPCSettings, vehicle: Vehicle, dock: HeaveDock | TrackedDock, solver: str
+    ) -> None:
         if settings.type not in self._PREDICTION:
             raise ValueError(f"not a baseline controller: {settings.type!r}")
         self.name = settings.type

@@ -23,7 +23,7 @@ driven by the ESTIMATED flow.
   term enters each QP through its gradient only (the Gauss-Newton matrix of cost (10)
   keeps the QP convex) and the one step per control period tracks the optimum over time;
   with ``ipopt`` its exact Hessian is used (inertia correction copes with the negative
-  curvature).  Iterated SQP with qrqp does not converge here (README, Performance).
+  curvature).  Iterated SQP with qrqp does not converge here (docs/performance.md).
   In the optimiser ``F_k`` is the smooth lower bound
   :func:`auvdock.estimation.flow_filter.information_lower_bound` ``1/tr(G_k^-1)``, within a factor 3 of
   ``lambda_min(G_k)`` and tight when the smallest eigenvalue is separated (the docstring
@@ -35,7 +35,7 @@ axis (``sigma_a^2 = 2.029e-5 (m/s^2)^2``), so yawing at 0.1 rad/s for the 0.5 s 
 raises F by about 5e3; alpha = 1e-3 (the default) makes that worth about 5 units of cost
 (10), the size of the tracking cost at a few decimetres of error.  The paper's
 alpha = 1e-15 belongs to its own (unstated) scaling of G.  ``benchmarks/alpha_sweep.py``
-measures the trade-off on case 2 (README): below 1e-3 the vehicle does not turn enough to
+measures the trade-off on case 2 (docs/performance.md): below 1e-3 the vehicle does not turn enough to
 learn the current and, predicting with a wrong flow, never closes the last centimetres;
 from 2e-3 on it estimates twice as well but keeps turning and does not dock in 75 s.
 """
@@ -68,7 +68,7 @@ from auvdock.runtime.interrupts import SigintDeferred
 from auvdock.sensing.settings import SensorSettings
 from auvdock.vehicle import Vehicle
 from auvdock.vehicle.state import ANG, ATT, ETA
-from auvdock.world.dock import HeaveDock
+from auvdock.world.dock import HeaveDock, TrackedDock
 
 __all__ = ["FSEMPC", "PerceptionLaw", "SequentialSettings", "OptimizedSettings"]
 
@@ -253,14 +253,14 @@ class FSEMPC:
         self,
         settings: SequentialSettings | OptimizedSettings,
         vehicle: Vehicle,
-        dock: HeaveDock,
+        dock: HeaveDock | TrackedDock,
         solver: str,
         estimator: EstimatorSettings,
         sensors: SensorSettings,
     ) -> None:
         if settings.type not in ("sequential", "optimized"):
             raise ValueError(f"not an FSE-MPC controller: {settings.type!r}")
-        self.name = settings.type
+        self.name: str = settings.type  # Controller.name (the settings' literal type)
         self.variant = settings.variant
         e = estimator
         dt = settings.dt_s

@@ -25,7 +25,7 @@ that with the updated ``d`` its prediction of the measured velocity is right)::
 (a first-order filter of time constant ``T_d`` on the wrench that explains the error;
 ``d_max`` the vehicle's largest wrench per axis, ``|B| u_max``).  The position's prediction
 error updates a velocity offset the same way, ``v <- clip(v + (dt / T_d) e_p / dt)`` in {n}
-(|v| <= :data:`VELOCITY_OFFSET_MAX`), added to the state's velocity before the wrench update and
+(``|v| <=`` :data:`VELOCITY_OFFSET_MAX`), added to the state's velocity before the wrench update and
 the solve: an FSE controller's velocity ``nu_r + R^T v_c_hat`` is biased by its estimate's error,
 which no force explains.  With ``state_from_flow`` a new flow estimate re-expresses the previous
 state instead of reading as a force.  A steady model error, a
@@ -54,6 +54,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -68,7 +69,7 @@ from auvdock.runtime.interrupts import SigintDeferred
 from auvdock.vehicle import Vehicle
 from auvdock.vehicle.model import rk4
 from auvdock.vehicle.state import ANG, ATT, ETA, LIN, NU, POS, YAW
-from auvdock.world.dock import HeaveDock
+from auvdock.world.dock import HeaveDock, TrackedDock
 
 __all__ = ["DockingMPC", "MPCResult", "shift_solution"]
 
@@ -80,7 +81,7 @@ NON_FINITE_INPUT = "non-finite input (state, flow estimate or dock)"
 #: Largest velocity offset of the offset-free observer, m/s per axis.
 VELOCITY_OFFSET_MAX = 0.5
 
-#: The fallback after failed solves, in words (results files and the README quote it).
+#: The fallback after failed solves, in words (results files and the docs quote it).
 FALLBACK_RULE = (
     "after a failed or unconverged solve, the last good plan's input for that instant, for at most "
     "fallback_steps steps in a row; then zero thrust (neutral) until a solve succeeds"
@@ -127,7 +128,7 @@ class DockingMPC:
     ----------
     vehicle : Vehicle
         The vehicle (its symbolic model is the prediction model's source).
-    dock : HeaveDock
+    dock : HeaveDock or TrackedDock
         The dock whose motion is known over the horizon (Assumption 2).
     horizon : int
         N, steps.
@@ -137,9 +138,9 @@ class DockingMPC:
         Diagonals of the stage (12), input-rate (n, one per thruster, 1/N^2) and terminal
         (12) weights.
     v_rel_max : array_like (3,)
-        Bound on |nu_r,1| (m/s), relative velocity in {b}.
+        Bound on ``|nu_r,1|`` (m/s), relative velocity in {b}.
     w_max : array_like (3,)
-        Bound on |nu_2| (rad/s).
+        Bound on ``|nu_2|`` (rad/s).
     prediction : {"naive", "kinematic", "full"}
         Prediction model, see the module docstring.
     solver : str
@@ -184,15 +185,15 @@ class DockingMPC:
     def __init__(
         self,
         vehicle: Vehicle,
-        dock: HeaveDock,
+        dock: HeaveDock | TrackedDock,
         *,
         horizon: int = 10,
         dt: float = 0.05,
         Q: np.ndarray | list[float],
         R: np.ndarray | list[float],
         P: np.ndarray | list[float],
-        v_rel_max: np.ndarray | list[float] = (2.5, 2.5, 2.5),
-        w_max: np.ndarray | list[float] = (0.25, 0.25, 0.25),
+        v_rel_max: np.ndarray | Sequence[float] = (2.5, 2.5, 2.5),
+        w_max: np.ndarray | Sequence[float] = (0.25, 0.25, 0.25),
         prediction: Prediction = "full",
         solver: str = "ipopt",
         max_iter: int = 100,
@@ -499,7 +500,7 @@ class DockingMPC:
         lam_x, lam_g = res.lam_x, res.lam_g
         solve_time = time.perf_counter() - t0
 
-        if ok and finite:
+        if ok and finite and w_opt is not None:
             self._w_prev = w_opt
             self._lam_x, self._lam_g = lam_x, lam_g
             self._plan_u = w_opt[self._iu] + u_off
@@ -514,7 +515,11 @@ class DockingMPC:
         if self._plan_u is not None:
             self._plan_age += 1
         k = self._plan_age
-        if self._plan_u is not None and k <= min(self.fallback_steps, self.N - 1):
+        if (
+            self._plan_u is not None
+            and self._plan_x is not None
+            and k <= min(self.fallback_steps, self.N - 1)
+        ):
             thrust = np.clip(self._plan_u[k], self.u_min, self.u_max)
             plan_x, plan_u = self._plan_x, self._plan_u
         else:

@@ -7,15 +7,15 @@ section is the discriminated union of the registered settings classes (:func:`se
 the CLI's ``--controller`` choices are :func:`controller_names`, and :func:`build_controller`
 makes one from its settings.
 
-=============  ======================================================  ===============  ========
-name           what it is                                              reads true flow  auto
-=============  ======================================================  ===============  ========
-``naive``      MPC, eqs. (1)-(2) with no current                       no               rti
-``kinematic``  MPC, current in the kinematics only (eq. 6)             yes (Assump. 3)  rti
-``oracle``     MPC, eqs. (1)-(2) with the true current                 yes (Assump. 3)  rti
-``sequential`` FSE-MPC: perception law (9) + MPC on the estimated flow no               rti [#]_
-``optimized``  FSE-MPC: cost (10) - alpha F, estimated flow            no               rti
-=============  ======================================================  ===============  ========
+==============  =======================================================  ===============  ========
+name            what it is                                               reads true flow  auto
+==============  =======================================================  ===============  ========
+``naive``       MPC, eqs. (1)-(2) with no current                        no               rti
+``kinematic``   MPC, current in the kinematics only (eq. 6)              yes (Assump. 3)  rti
+``oracle``      MPC, eqs. (1)-(2) with the true current                  yes (Assump. 3)  rti
+``sequential``  FSE-MPC: perception law (9) + MPC on the estimated flow  no               rti [#]_
+``optimized``   FSE-MPC: cost (10) - alpha F, estimated flow             no               rti
+==============  =======================================================  ===============  ========
 
 .. [#] ``sqp`` for ``sequential@paper`` (:func:`resolve_solver` says why).
 """
@@ -34,7 +34,7 @@ from auvdock.controllers.fse import FSEMPC, OptimizedSettings, SequentialSetting
 from auvdock.controllers.settings import MPCSettings
 from auvdock.controllers.solvers import SOLVERS
 from auvdock.estimation.flow_filter import EstimatorSettings
-from auvdock.sensing.sensors import SensorSettings
+from auvdock.sensing.settings import SensorSettings
 from auvdock.vehicle import Vehicle
 from auvdock.world.dock import HeaveDock
 
@@ -42,6 +42,8 @@ __all__ = [
     "ControllerEntry",
     "CONTROLLERS",
     "controller_names",
+    "controller_label",
+    "controller_short_label",
     "VARIANTS",
     "split_controller",
     "controller_specs",
@@ -65,7 +67,7 @@ class ControllerEntry:
     build : callable
         ``build(settings, vehicle, dock, solver, estimator, sensors) -> Controller``.
     auto_solver : str
-        What solver ``auto`` means for it (README, Performance: how it was chosen).
+        What solver ``auto`` means for it (docs/performance.md: how it was chosen).
     auto_solver_paper : str, optional
         What ``auto`` means for its ``paper`` variant, where that differs.
     reads_true_flow : bool
@@ -76,6 +78,13 @@ class ControllerEntry:
         Whether it learns the current itself from the sensors (the FSE controllers' flow
         filter, paper IV.A): it then needs the water-relative velocity, which only the
         estimation stage (or the paper's simulated sensor, ``estimation: truth`` in sim) gives.
+    label : str
+        Its display name in tables, findings and figures (``"Oracle MPC"``).
+    short_label : str
+        The first word of it, as the paper's findings name it (``"Oracle"``).
+    colour : str
+        Its colour in every figure (hex; colour-blind-safe Okabe-Ito hues); empty: the figures
+        pick one from a fallback palette by its name.
     """
 
     name: str
@@ -86,6 +95,9 @@ class ControllerEntry:
     summary: str
     estimates_flow: bool = False
     auto_solver_paper: str | None = None
+    label: str = ""
+    short_label: str = ""
+    colour: str = ""
 
 
 def _baseline(settings, vehicle, dock, solver, estimator, sensors) -> Controller:
@@ -96,41 +108,53 @@ def _fse(settings, vehicle, dock, solver, estimator, sensors) -> Controller:
     return FSEMPC(settings, vehicle, dock, solver, estimator, sensors)
 
 
-#: Every controller, in the paper's order: the one place to register a new one.
+#: Every controller, in the paper's order: the one place to register a new one.  The order is the
+#: order of every listing, table and legend; ``label`` and ``colour`` are how every output shows it.
 CONTROLLERS: dict[str, ControllerEntry] = {
     e.name: e
     for e in (
-        ControllerEntry("naive", NaiveSettings, _baseline, "rti", False, "MPC, no current in the model"),
         ControllerEntry(
-            "kinematic", KinematicSettings, _baseline, "rti", True, "MPC, true current in the kinematics"
-        ),
-        ControllerEntry("oracle", OracleSettings, _baseline, "rti", True, "MPC, full model, true current"),
-        ControllerEntry(
-            "sequential",
-            SequentialSettings,
-            _fse,
-            "rti",
-            False,
-            "FSE-MPC: perception law (9), then MPC",
-            estimates_flow=True,
-            auto_solver_paper="sqp",
+            "naive", NaiveSettings, _baseline, "rti", False, "MPC, no current in the model",
+            label="Naive MPC", short_label="Naive", colour="#D55E00",  # vermillion
         ),
         ControllerEntry(
-            "optimized",
-            OptimizedSettings,
-            _fse,
-            "rti",
-            False,
-            "FSE-MPC: cost (10) - alpha F",
+            "kinematic", KinematicSettings, _baseline, "rti", True, "MPC, true current in the kinematics",
+            label="Kinematic MPC", short_label="Kinematic", colour="#E69F00",  # orange
+        ),
+        ControllerEntry(
+            "oracle", OracleSettings, _baseline, "rti", True, "MPC, full model, true current",
+            label="Oracle MPC", short_label="Oracle", colour="#009E73",  # bluish green
+        ),
+        ControllerEntry(
+            "sequential", SequentialSettings, _fse, "rti", False, "FSE-MPC: perception law (9), then MPC",
+            estimates_flow=True, auto_solver_paper="sqp",
+            label="Sequential FSE-MPC", short_label="Sequential", colour="#0072B2",  # blue
+        ),
+        ControllerEntry(
+            "optimized", OptimizedSettings, _fse, "rti", False, "FSE-MPC: cost (10) - alpha F",
             estimates_flow=True,
+            label="Optimized FSE-MPC", short_label="Optimized", colour="#CC79A7",  # reddish purple
         ),
     )
-}
+}  # fmt: skip
 
 
 def controller_names() -> tuple[str, ...]:
     """The registered controllers' names, in order."""
     return tuple(CONTROLLERS)
+
+
+def controller_label(spec: str) -> str:
+    """Display name of a registered controller (``"oracle"`` -> ``"Oracle MPC"``); any other name
+    (an unregistered one, or a ``NAME@VARIANT`` spec) is returned as it is."""
+    entry = CONTROLLERS.get(str(spec))
+    return entry.label if entry is not None and entry.label else str(spec)
+
+
+def controller_short_label(spec: str) -> str:
+    """The short display name (``"oracle"`` -> ``"Oracle"``), as the paper's findings name it."""
+    entry = CONTROLLERS.get(str(spec))
+    return entry.short_label if entry is not None and entry.short_label else controller_label(spec)
 
 
 #: ``controller.variant`` values: the paper's formulation, or the robust one (the default).
@@ -184,7 +208,7 @@ def resolve_solver(name: str, controller: str, variant: str | None = None) -> st
     given, takes precedence over the spec's.
 
     ``auto`` was chosen by docking all six paper cases with every controller x solver
-    (``auvdock bench --case 1 ... --case 6 --solvers rti,sqp,ipopt``; README, Performance):
+    (``auvdock bench --case 1 ... --case 6 --solvers rti,sqp,ipopt``; docs/performance.md):
     ``rti`` docks exactly the cases the iterated solvers dock, at the same times to 0.05 s,
     with every controller in its robust variant, in a third of the time per step or less.
     With Sequential FSE-MPC in the paper's variant it does not: there the MPC does not know

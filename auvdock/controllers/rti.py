@@ -79,7 +79,7 @@ def qp_options(qp: str, dims: dict | None) -> dict:
 
 
 class RealTimeIteration:
-    """One Gauss-Newton SQP step per call, for ``min f(w, p) s.t. g(w, p) = 0`` and bounds.
+    """One Gauss-Newton SQP step per call, for ``min f(w, p)`` subject to ``g(w, p) = 0`` and bounds.
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""Settings every MPC controller shares (paper eq. 10; parameters.md section 4).
+"""Settings every MPC controller shares (paper eq. 10; docs/parameter-sources.md section 4).
 
 Each controller type has its own settings class (a :class:`MPCSettings` with a literal
 ``type`` and its own fields, in the controller's module); the mission's ``controller``
@@ -16,7 +16,7 @@ from auvdock.config.schema import NonNegFloat, PosFloat, Strict, Vec3Pos, Vec12N
 
 __all__ = ["WeightsSpec", "BoundsSpec", "SolverSpec", "MPCSettings", "DEFAULT_Q"]
 
-#: Diagonal stage and terminal weights of the 12-state error (paper; parameters.md section 4).
+#: Diagonal stage and terminal weights of the 12-state error (paper; docs/parameter-sources.md section 4).
 DEFAULT_Q = [1.0, 1.0, 1.0, 100.0, 100.0, 100.0, 1.0, 1.0, 1.0, 100.0, 100.0, 100.0]
 
 
@@ -52,7 +52,7 @@ class WeightsSpec(Strict):
 
 
 class BoundsSpec(Strict):
-    """State bounds of the MPC (parameters.md section 4)."""
+    """State bounds of the MPC (docs/parameter-sources.md section 4)."""
 
     relative_velocity_max_m_s: Vec3Pos = Field(
         default=[2.5, 2.5, 2.5], description="|u_r|, |v_r|, |w_r|, m/s"

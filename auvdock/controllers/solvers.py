@@ -38,7 +38,7 @@ __all__ = ["Problem", "SolveResult", "NLPSolver", "SolverEntry", "SOLVERS", "IPO
 
 @dataclass
 class Problem:
-    """A parametric NLP ``min f(w, p) s.t. g(w, p) = 0, lbx <= w <= ubx`` (CasADi SX).
+    """A parametric NLP, ``min f(w, p)`` subject to ``g(w, p) = 0, lbx <= w <= ubx`` (CasADi SX).
 
     ``H_gn`` is the Gauss-Newton Hessian of ``f`` in ``w`` (positive semidefinite; None
     when the exact Hessian is wanted), ``hessian`` names which one is meant.  ``dims`` is
@@ -142,7 +142,7 @@ def _hess_lag(problem: Problem, upper: bool) -> ca.Function | None:
     )
 
 
-_COMMON = {"expand": True, "print_time": False, "error_on_fail": False}
+_COMMON: dict[str, object] = {"expand": True, "print_time": False, "error_on_fail": False}
 
 #: IPOPT's options in the ``ipopt`` solver (besides the mission's ``max_iter`` and ``tol``): quiet,
 #: and warm-started from the previous primal-dual solution (the benchmarks give do-mpc the same).

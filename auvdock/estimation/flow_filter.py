@@ -1,4 +1,4 @@
-"""Flow state estimation (paper section IV.A; Chang et al.; parameters.md section 5).
+"""Flow state estimation (paper section IV.A; Chang et al.; docs/parameter-sources.md section 5).
 
 A Kalman filter on the body-frame flow ``f = nu_c1`` (3 states, m/s) from inertial
 measurements only -- no velocity sensor (no DVL):
@@ -25,7 +25,7 @@ last control period with gravity removed (a delta-velocity reading, as IMUs inte
 the model's relative acceleration is taken over the same period, so the two match.
 
 Information metric (paper eq. 8): ``F = lambda_min(G)``, with the constructability gramian
-propagated recursively (parameters.md)::
+propagated recursively (docs/parameter-sources.md section 5)::
 
     G_k = gamma F_k^-T G_(k-1) F_k^-1 + H_k^T R^-1 H_k,     G_0 = I,
 
@@ -71,9 +71,10 @@ def flow_transition(nu2, dt: float, lib=np):
     Evaluated as the 4th-order Taylor series of the matrix exponential, exact to
     ``(|nu_2| dt)^5 / 120`` (below 3e-12 at the MPC's rate bound of 0.25 rad/s and dt = 0.05 s),
     polynomial so that CasADi can differentiate it.  The paper's ``I - S(nu_2) dt`` is its
-    first-order truncation; it is not a rotation, so a filter built on it believes that |f|
+    first-order truncation; it is not a rotation, so a filter built on it believes that ``|f|``
     grows every step and drifts outward (measured: +0.017 m/s after 30 s at 0.3 rad/s).
     """
+    eye: np.ndarray | ca.DM
     if lib is np:
         A = -skew(np.asarray(nu2, dtype=float)) * dt
         eye = np.eye(3)
@@ -87,7 +88,7 @@ def flow_transition(nu2, dt: float, lib=np):
 
 
 class EstimatorSettings(Strict):
-    """The flow Kalman filter's settings (parameters.md section 5)."""
+    """The flow Kalman filter's settings (docs/parameter-sources.md section 5)."""
 
     prior_flow_ned_m_s: Vec3 = Field(default=[0.0, 0.0, 0.0], description="prior flow estimate, m/s")
     prior_std_m_s: Annotated[float, Field(gt=0)] = Field(
@@ -379,7 +380,7 @@ class FlowEstimator:
         #: motion (model-free; None: not, the paper's filter, accelerometer and depth rate only).
         self.position_var = None if position_std is None else max(float(position_std), 1e-4) ** 2
         #: Relative error of the model's predicted acceleration, added to the accelerometer rows'
-        #: noise as (error |nu_r1_dot|)^2 (0: none, the paper's filter).
+        #: noise as ``(error |nu_r1_dot|)^2`` (0: none, the paper's filter).
         self.model_accel_error = float(model_accel_error)
         self.vr_var = float(relative_velocity_std) ** 2
         self.dt = float(dt)

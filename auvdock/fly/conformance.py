@@ -18,7 +18,7 @@ FRAME_CONFIG           2 (Vectored_6DOF)                the mixer the channel ma
 SERVOn_FUNCTION        32 + n (Motor n), n = 1..8       motor n on output n, as the map assumes;
                                                         RCPassThru would bypass the mixer (and
                                                         disarming would not stop the thrusters)
-MOT_n_DIRECTION        1 or -1 (and ``fly.parameters``) a thruster test fixes them per vehicle;
+MOT_n_DIRECTION        1 or -1 (``fly.parameters``)     a thruster test fixes them per vehicle;
                                                         pin the found values in the mission
 RC_OVERRIDE_TIME       > 3 control periods, <= 3 s      0 disables overrides; -1 never lapses (the
                                                         last thrust stays on if the link drops)

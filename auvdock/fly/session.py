@@ -89,7 +89,8 @@ from auvdock.fly.telemetry import (
 )
 from auvdock.fly.vehicle_state import VehicleState
 from auvdock.loop.autopilot import build_autopilot
-from auvdock.loop.closed_loop import LoopResult, run_closed_loop
+from auvdock.loop import closed_loop
+from auvdock.loop.closed_loop import LoopResult
 from auvdock.loop.closed_loop import Progress as LoopProgress
 from auvdock.runtime.clock import Clock
 from auvdock.runtime.interrupts import SigintDeferred
@@ -618,7 +619,7 @@ class FlySession:
             with self._stderr.capture():
                 yield
 
-        result = run_closed_loop(
+        result = closed_loop.run_closed_loop(
             plant=self._plant,
             autopilot=self.autopilot,
             actuators=self.actuators,

@@ -31,7 +31,8 @@ from auvdock.config.mission import Mission
 from auvdock.controllers.hold import DepthAttitudeHold
 from auvdock.controllers.status import STATUS_NAMES
 from auvdock.loop.autopilot import Autopilot, build_autopilot
-from auvdock.loop.closed_loop import LoopRecorder, Progress, run_closed_loop, run_outcome
+from auvdock.loop import closed_loop
+from auvdock.loop.closed_loop import LoopRecorder, Progress, run_outcome
 from auvdock.loop.simulated_plant import SimulatedPlant
 from auvdock.results.run import MemoryRecorder, Run
 from auvdock.results.store import RunWriter, flush_steps
@@ -167,7 +168,7 @@ def simulate(
             writer = RunWriter(out if not isinstance(out, str) else Path(out), group, **meta)
     recorder.sinks = [s for s in (writer, memory) if s is not None]
     try:
-        result = run_closed_loop(
+        result = closed_loop.run_closed_loop(
             plant=plant,
             autopilot=ap,
             actuators=actuators,

@@ -18,8 +18,8 @@ name                   shape       unit       frame        meaning
 =====================  ==========  =========  ===========  ==============================================
 ``time_s``             (T,)        s          --           time t_k of the step
 ``state``              (T, 12)     m, rad,    NED / body   vehicle state at t_k: [x y z (NED position, m),
-                                   m/s, rad/s              phi theta psi (ZYX Euler angles, rad),
-                                                           u v w (body velocity over ground, m/s),
+                                   m/s,                    phi theta psi (ZYX Euler angles, rad),
+                                   rad/s                   u v w (body velocity over ground, m/s),
                                                            p q r (body angular rate, rad/s)]
 ``thrust_N``           (T, n)      N          thruster     the n thruster forces applied on [t_k, t_k+dt)
 ``wrench``             (T, 6)      N, N m     body {b}     body wrench B u = [X Y Z K M N]

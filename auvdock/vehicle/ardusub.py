@@ -13,7 +13,7 @@ pilot channels into motor outputs:
 3. each motor command m becomes ``PWM = 1500 + 400 m`` (``calc_thrust_to_pwm``).
 
 The motor factors (:data:`MOTOR_FACTORS`) have the signs of ``-B`` column for column
-(parameters.md section 1): a positive motor command pushes along ``-e_i``.  Thruster force
+(docs/parameter-sources.md section 1): a positive motor command pushes along ``-e_i``.  Thruster force
 ``u_i`` in this package is along ``+e_i`` and its strong direction (51.4 N at 16 V) is
 positive, so motor ``i`` at command ``m`` pushes ``u_i = T200(1500 - 400 m)``, with ``T200``
 the inverse of :func:`auvdock.vehicle.thrusters.t200_force_to_pwm` (the propeller spins

@@ -143,7 +143,7 @@ def rigid_body_mass(m: float, r_g: np.ndarray, I_g: np.ndarray) -> np.ndarray:
     return np.block([[m * np.eye(3), -m * S], [m * S, I_o]])
 
 
-def rk4(f: Callable[..., Sym], x: Sym, h: float, substeps: int, *args: Sym) -> Sym:
+def rk4(f: Callable[..., Sym], x: Sym, h: float | Sym, substeps: int, *args: Sym) -> Sym:
     """``substeps`` classical Runge-Kutta steps of ``x_dot = f(x, *args)`` over time ``h`` (s)."""
     hs = h / substeps
     for _ in range(substeps):
@@ -191,7 +191,7 @@ class VehicleModel:
         return m2c(self.M_A, nu_r)
 
     def damping(self, nu_r: Sym) -> Sym:
-        """D(nu_r) = diag(D_lin) + diag(D_quad) |nu_r| (6x6)."""
+        """``D(nu_r) = diag(D_lin) + diag(D_quad) |nu_r|`` (6x6)."""
         return ca.diag(self.D_lin + self.D_quad * ca.fabs(nu_r))
 
     def restoring(self, eta: Sym) -> Sym:

@@ -3,9 +3,9 @@
 Thruster i at position r_i (m, {b}) pushing along unit direction e_i contributes the
 wrench ``[e_i; r_i x e_i]`` per newton, so ``B = [e_i; r_i x e_i]`` column by column
 (6 x 8).  ArduSub's VECTORED_6DOF motor factors equal ``-B`` column for column
-(parameters.md section 1).
+(docs/parameter-sources.md section 1).
 
-T200 force-to-PWM fits (16 V, Blue Robotics performance data 2019; parameters.md)::
+T200 force-to-PWM fits (16 V, Blue Robotics performance data 2019; docs/parameter-sources.md section 1)::
 
     forward  (F > 0): PWM = 1534.13 + 11.9405 F - 0.17247 F^2 + 0.00150 F^3
     reverse  (F < 0): PWM = 1467.58 + 15.4759 F + 0.29830 F^2 + 0.00347 F^3
@@ -71,7 +71,7 @@ def t200_pwm_to_force(pwm_us: np.ndarray | float) -> np.ndarray:
     """Force (N) of a T200 at 16 V for a PWM pulse width: the inverse of ``t200_force_to_pwm``.
 
     Zero inside the dead band (about 1467.6..1534.1 us), saturating at -39.9 / +51.4 N.
-    Interpolated on a 5 mN grid of the fitted curve (parameters.md section 1).
+    Interpolated on a 5 mN grid of the fitted curve (docs/parameter-sources.md section 1).
     """
     p = np.asarray(pwm_us, dtype=float)
     fwd = np.interp(p, _FWD_PWM, _FWD_F, left=0.0)

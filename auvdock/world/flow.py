@@ -12,7 +12,7 @@ Units and frames: position ``p`` is NED in metres, time ``t`` in seconds, and th
 returned velocity is the water velocity (north, east, down) in m/s in the inertial
 frame {n}.  The vertical component is zero everywhere (paper Assumption 4).
 
-The six flow cases of the paper (section VII.A, parameters.md section 2) are available
+The six flow cases of the paper (section VII.A, docs/parameter-sources.md section 2) are available
 by name through :func:`flow_case`: ``case1`` .. ``case6`` and readable aliases.
 
 References
@@ -27,7 +27,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from types import SimpleNamespace
-from typing import Any
+from typing import Any, overload
 
 import casadi as ca
 import numpy as np
@@ -86,6 +86,12 @@ class FlowField:
         vn = np.broadcast_to(vn, north.shape)
         ve = np.broadcast_to(ve, north.shape)
         return np.stack([vn, ve, np.zeros_like(north)], axis=-1)
+
+    @overload
+    def symbolic(self, p_ned: ca.SX, t: ca.SX | float) -> ca.SX: ...
+
+    @overload
+    def symbolic(self, p_ned: ca.MX, t: ca.MX | float) -> ca.MX: ...
 
     def symbolic(self, p_ned: ca.SX | ca.MX, t: ca.SX | ca.MX | float) -> ca.SX | ca.MX:
         """CasADi expression of the water velocity (3x1, NED, m/s) at ``p_ned`` (3x1, m), ``t`` (s)."""
@@ -149,7 +155,7 @@ class DoubleGyre(FlowField):
     y_g = (North + north_offset_m) / scale_m (defaults: the paper's domain East in
     [-7.5, 12.5] km, North in [-7.5, 2.5] km).  The flow in {n} is
     (north, east, down) = (v_g, u_g, 0) in m/s; speeds are not rescaled (peak about
-    pi A).  These are the authors' conventions (parameters.md section 2).
+    pi A).  These are the authors' conventions (docs/parameter-sources.md section 2).
 
     Parameters
     ----------
