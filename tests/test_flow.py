@@ -1,4 +1,5 @@
-"""Tests of the flow fields (auvdock.world.flow) against hand computations from docs/parameter-sources.md section 2.
+"""Tests of the flow fields (auvdock.world.flow) against hand computations from
+docs/parameter-sources.md section 2.
 
 Double gyre (Shadden et al. 2005) on [0, 2] x [0, 1], eps = 0.3::
 

@@ -96,7 +96,8 @@ def test_fly_arm_docks_in_the_tank(loop, tmp_path) -> None:
     assert r.attrs["complete"]
     out = r.outcome()
     assert out["docked"] and out["reason"] == "docked"
-    print(f"docked at {out['time_to_dock_s']:.2f} s of simulated time")  # docs/commands/vehicle-sim.md quotes it (-s)
+    # docs/commands/vehicle-sim.md quotes it (-s)
+    print(f"docked at {out['time_to_dock_s']:.2f} s of simulated time")
     assert "vehicle: Arming motors" in out["events_json"]
     assert out["closest_approach_m"] <= 0.05
     # the state in which docking was declared is the file's last row, within the tolerance

@@ -47,6 +47,7 @@ def camera_mission(tmp_path: Path, *, offset_east_m: float = 0.2, docking=None, 
     return write_mission(tmp_path / "camera.yaml", **sections)
 
 
+@pytest.mark.slow
 def test_synthetic_camera_docks_in_the_tank_through_a_short_loss(loop, tmp_path) -> None:
     """Docks at the rendered dock (0.3 m east); a 0.8 s blackout (hold 0.5 s) is held (depth and
     attitude), recovered."""
@@ -89,10 +90,12 @@ def test_synthetic_camera_docks_in_the_tank_through_a_short_loss(loop, tmp_path)
     assert np.any(r.extras["channels_us"][holding] != 1500)  # not neutral: the buoyant vehicle would rise
     fixes = np.nansum(r.extras["camera_fixes"])
     assert fixes >= 0.9 * 5.0 * (t[-1] - 0.8)  # every frame outside the blackout gives a fix
-    latency = r.extras["camera_latency_s"]  # capture to fix: no simulated time (wall-clock figure in the docs)
+    # capture to fix: no simulated time (wall-clock figure in the docs)
+    latency = r.extras["camera_latency_s"]
     assert np.all(latency[np.isfinite(latency)] == 0.0)
 
 
+@pytest.mark.slow
 def test_markers_lost_longer_than_hold_neutral_then_abort(loop, tmp_path) -> None:
     mission = camera_mission(tmp_path, hold_s=1.0, abort_s=2.5, synthetic={"dropout_s": [[2.0, 100.0]]})
     sim, port = loop.vehicle(mission)

@@ -42,7 +42,7 @@ def default_missions_dir() -> Path:
 
 def bench_rows(
     cases: Sequence[int] = DEFAULT_CASES,
-    controllers: Sequence[str] = ("naive", "kinematic", "oracle", "sequential", "optimized"),
+    controllers: Sequence[str] | None = None,
     solvers: Sequence[str] = ("auto",),
     *,
     qps: Sequence[str] = ("hpipm",),
@@ -56,7 +56,8 @@ def bench_rows(
     cases : sequence of int
         Paper case numbers 1..6 (the shipped missions ``missions/<name>.yaml``).
     controllers, solvers : sequence of str
-        Controller names and ``controller.solver.name`` values (``auto``, ``rti``, ``sqp``, ``ipopt``).
+        Controller names (default: every registered one, in the registry's order) and
+        ``controller.solver.name`` values (``auto``, ``rti``, ``sqp``, ``ipopt``).
     qps : sequence of str
         ``controller.solver.qp`` values (``hpipm``, ``qrqp``) for the solvers that solve QPs
         (``rti``, ``sqp``); ``ipopt`` runs once whatever they are.
@@ -66,9 +67,11 @@ def bench_rows(
         Called with each row as soon as it is measured.
     """
     from auvdock.config.mission import load_mission
-    from auvdock.controllers import resolve_solver
+    from auvdock.controllers import controller_names, resolve_solver
     from auvdock.loop.simulation import simulate
 
+    if controllers is None:
+        controllers = controller_names()
     d = default_missions_dir()
     rows = []
     for case in cases:

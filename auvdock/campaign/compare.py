@@ -116,8 +116,23 @@ def campaign_specs(
 
 
 def compare_plan(specs: Sequence[RunSpec]) -> Plan:
-    """The plan of a compare campaign made of ``specs`` (:func:`campaign_specs`)."""
-    return Plan("compare", list(specs), dict(COMPARE_LABELS))
+    """The plan of a compare campaign made of ``specs`` (:func:`campaign_specs`).
+
+    Its file records the missions (case names) and controllers it was made with; ``--resume``
+    with another set of either is refused (:func:`auvdock.campaign.store.check_resume`).
+    """
+    specs = list(specs)
+    attrs = {
+        "missions": list(dict.fromkeys(str(s.labels.get("case", "")) for s in specs)),
+        "controllers": list(dict.fromkeys(s.controller for s in specs)),
+    }
+    return Plan(
+        "compare",
+        specs,
+        dict(COMPARE_LABELS),
+        attrs=attrs,
+        same_on_resume={"missions": "case", "controllers": "controller"},
+    )
 
 
 def run_campaign(

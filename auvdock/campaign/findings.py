@@ -1,4 +1,4 @@
-"""The paper's findings (parameters.md section 5b), checked against a campaign's own table.
+"""The paper's findings (docs/parameter-sources.md section 5b), checked against a campaign's own table.
 
 Each :class:`Finding` is one claim of the paper (fixed: that is what is checked), what the
 campaign measured, a verdict, and -- where the verdict is not "holds" -- an explanation
@@ -6,7 +6,9 @@ made only of the campaign's figures: time to dock, closest approach against the 
 tolerance, path length, flow-estimate RMSE and final error, wall and set-up time.  No
 sentence is written in advance, so none can contradict the table it is printed beside.
 Only runs of the paper's six cases count (``paper_case`` 1-6) and only runs that ran
-(``status == "done"``).  The paper's claims are about its own formulation: where the campaign
+(``status == "done"``).  A campaign of some of the cases is checked on the cases it ran, and
+says which (:func:`coverage_note`; "over cases 1, 2 only" in a finding's measurement).
+The paper's claims are about its own formulation: where the campaign
 has a controller's ``NAME@paper`` runs they are the ones checked, else its ``NAME`` runs.  The
 last finding sets the robust defaults (``NAME``) beside the paper variants (``NAME@paper``).
 """
@@ -18,20 +20,15 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["Finding", "PAPER_COMPUTE_S", "check_findings"]
+from auvdock.controllers.registry import CONTROLLERS, controller_label, controller_short_label
+
+__all__ = ["Finding", "PAPER_COMPUTE_S", "check_findings", "covered_cases", "coverage_note"]
 
 #: The paper's compute per 75 s case (Python + CasADi on an Intel i7-10870H laptop), s.
 PAPER_COMPUTE_S = {"optimized": 5014.83, "sequential": 203.08}
 #: The length of the paper's cases (their timeout), s: what its compute figures are per.
 PAPER_CASE_S = 75.0
 _ALL = frozenset(range(1, 7))
-_LABEL = {
-    "naive": "Naive MPC",
-    "kinematic": "Kinematic MPC",
-    "oracle": "Oracle MPC",
-    "sequential": "Sequential FSE-MPC",
-    "optimized": "Optimized FSE-MPC",
-}
 #: "Clearly lower" flow RMSE: at least this much below (a ratio).
 CLEAR_RATIO = 0.8
 
@@ -69,6 +66,35 @@ def _cases(cases: Iterable[int]) -> str:
     return ", ".join(str(c) for c in sorted(cases)) or "none"
 
 
+def _over(ran: Iterable[int]) -> str:
+    """``over cases 1, 2 only (no finished run in 3, 4, 5, 6)``: what a check on some cases covers."""
+    ran = set(ran)
+    s = "s" if len(ran) > 1 else ""
+    return f"over case{s} {_cases(ran)} only (no finished run in {_cases(_ALL - ran)})"
+
+
+def covered_cases(records: Iterable[dict[str, Any]]) -> set[int]:
+    """The paper's cases (1-6) with at least one finished run in the campaign."""
+    return {
+        int(r["paper_case"])
+        for r in records
+        if int(r.get("paper_case", 0) or 0) in _ALL and r.get("status") == "done"
+    }
+
+
+def coverage_note(records: Iterable[dict[str, Any]]) -> str:
+    """One sentence on the cases the findings are checked on; "" when the campaign ran all six."""
+    ran = covered_cases(records)
+    if ran == _ALL:
+        return ""
+    if not ran:
+        return "This campaign has no finished run of the paper's six cases: no finding can be checked."
+    return (
+        f"This campaign ran paper case{'s' if len(ran) > 1 else ''} {_cases(ran)} only (no finished run in "
+        f"{_cases(_ALL - ran)}): each finding is checked on the cases it ran, and says so."
+    )
+
+
 def _join(parts: Sequence[str]) -> str:
     return "; ".join(parts)
 
@@ -96,13 +122,17 @@ def _why_not_docked(case: int, r: dict[str, Any]) -> str:
 
 
 def _docking(records, ctrl: str, expected: frozenset[int]) -> Finding:
-    label = _LABEL[ctrl]
+    label = controller_label(ctrl)
     text = f"{label} docks in " + ("all six cases" if expected == _ALL else "cases 1 and 5 only")
     runs = _by(records, ctrl)
-    if not _ALL <= set(runs):
-        return Finding(text, f"cases run: {_cases(runs)}", "not run")
+    if not runs:
+        return Finding(text, "cases run: none", "not run")
+    ran = frozenset(runs)  # checked on the cases that ran (all six in a full campaign)
+    expected = expected & ran
     docked = {c for c, r in runs.items() if r["docked"]}
-    measured = f"docks in {_cases(docked)}; times out in {_cases(_ALL - docked)}"
+    measured = f"docks in {_cases(docked)}; times out in {_cases(ran - docked)}"
+    if ran != _ALL:
+        measured = f"{_over(ran)}: {measured}"
     if docked == expected:
         return Finding(text, measured, "holds")
     why: list[str] = []
@@ -115,12 +145,12 @@ def _docking(records, ctrl: str, expected: frozenset[int]) -> Finding:
             diffs = [abs(runs[c]["time_to_dock_s"] - oracle[c]["time_to_dock_s"]) for c in extra]
             worst = extra[diffs.index(max(diffs))]
             sentence = (
-                "Oracle MPC docks in the same cases at "
+                f"{controller_label('oracle')} docks in the same cases at "
                 + ", ".join(f"{oracle[c]['time_to_dock_s']:.2f}" for c in extra)
                 + f" s, the largest difference {max(diffs):.2f} s (case {worst})"
             )
             if max(diffs) <= 0.5:
-                sentence += f", so {label} flies as Oracle MPC there"
+                sentence += f", so {label} flies as {controller_label('oracle')} there"
             why.append(sentence + ".")
     for c in sorted(expected - docked):
         why.append(_why_not_docked(c, runs[c]))
@@ -128,7 +158,8 @@ def _docking(records, ctrl: str, expected: frozenset[int]) -> Finding:
 
 
 def _travel(records) -> Finding:
-    text = "Travel time: Optimized > Sequential > Oracle"
+    on, sn, qn = (controller_short_label(c) for c in ("optimized", "sequential", "oracle"))
+    text = f"Travel time: {on} > {sn} > {qn}"
     o, s, q = _by(records, "optimized"), _by(records, "sequential"), _by(records, "oracle")
     if not (o and s and q):
         return Finding(text, "needs oracle, sequential and optimized runs", "not run")
@@ -140,7 +171,7 @@ def _travel(records) -> Finding:
             continue
         ended = [
             f"{n} ended at {runs[c]['end_time_s']:.1f} s without docking"
-            for n, runs in (("Optimized", o), ("Sequential", s), ("Oracle", q))
+            for n, runs in ((on, o), (sn, s), (qn, q))
             if not runs[c]["docked"]
         ]
         left_out.append(f"case {c} ({', '.join(ended)})")
@@ -157,7 +188,7 @@ def _travel(records) -> Finding:
     if len(good) == len(common):
         return Finding(text, measured, "holds", left)
     why = []
-    for a, an, b, bn in ((o, "Optimized", s, "Sequential"), (s, "Sequential", q, "Oracle")):
+    for a, an, b, bn in ((o, on, s, sn), (s, sn, q, qn)):
         early = [c for c in common if not t(a, c) > t(b, c)]
         if early:
             by = ", ".join(f"{t(b, c) - t(a, c):.2f}" for c in early)
@@ -169,7 +200,8 @@ def _travel(records) -> Finding:
 
 
 def _rmse(records) -> Finding:
-    text = "Flow RMSE: Optimized < Sequential, clearly so in cases 2 and 4"
+    on, sn = controller_short_label("optimized"), controller_short_label("sequential")
+    text = f"Flow RMSE: {on} < {sn}, clearly so in cases 2 and 4"
     o, s = _by(records, "optimized"), _by(records, "sequential")
     both = sorted(c for c in set(o) & set(s) if _ok(o[c]["flow_rmse_m_s"]) and _ok(s[c]["flow_rmse_m_s"]))
     if not both:
@@ -180,15 +212,21 @@ def _rmse(records) -> Finding:
 
     lower = [c for c in both if e(o, c) < e(s, c)]
     parts = [f"case {c}: {e(o, c):.4f} / {e(s, c):.4f}" for c in both]
-    measured = f"Optimized lower in {len(lower)} of {len(both)} cases (opt / seq, m/s): " + _join(parts)
-    unclear = [c for c in (2, 4) if c not in both or not e(o, c) < CLEAR_RATIO * e(s, c)]
+    measured = f"{on} lower in {len(lower)} of {len(both)} cases (opt / seq, m/s): " + _join(parts)
+    if covered_cases(records) != _ALL:  # checked on the cases run: "clearly" only where they ran
+        unchecked = [c for c in (2, 4) if c not in both]
+        if unchecked:
+            measured += f"; 'clearly' not checked in case {' and '.join(map(str, unchecked))} (not run)"
+        unclear = [c for c in (2, 4) if c in both and not e(o, c) < CLEAR_RATIO * e(s, c)]
+    else:
+        unclear = [c for c in (2, 4) if c not in both or not e(o, c) < CLEAR_RATIO * e(s, c)]
     if len(lower) == len(both) and not unclear:
         return Finding(text, measured, "holds")
     why = []
     not_lower = [c for c in both if c not in lower]
     if not_lower:
         why.append(
-            "Optimized is not lower in "
+            f"{on} is not lower in "
             + ", ".join(f"case {c} ({e(o, c):.4f} vs {e(s, c):.4f} m/s)" for c in not_lower)
             + "."
         )
@@ -197,13 +235,13 @@ def _rmse(records) -> Finding:
             why.append(f"Case {c} has no pair of runs to compare.")
         elif c in lower:
             why.append(
-                f"In case {c} Optimized is only {100 * (1 - e(o, c) / e(s, c)):.0f} % lower "
+                f"In case {c} {on} is only {100 * (1 - e(o, c) / e(s, c)):.0f} % lower "
                 f"({e(o, c):.4f} vs {e(s, c):.4f} m/s; 'clearly' is taken as at least "
                 f"{100 * (1 - CLEAR_RATIO):.0f} % lower)."
             )
     apart = [
-        f"case {c} Optimized {o[c]['end_time_s']:.1f} s ({'docked' if o[c]['docked'] else 'no dock'}), "
-        f"Sequential {s[c]['end_time_s']:.1f} s ({'docked' if s[c]['docked'] else 'no dock'})"
+        f"case {c} {on} {o[c]['end_time_s']:.1f} s ({'docked' if o[c]['docked'] else 'no dock'}), "
+        f"{sn} {s[c]['end_time_s']:.1f} s ({'docked' if s[c]['docked'] else 'no dock'})"
         for c in both
         if o[c]["docked"] != s[c]["docked"]
     ]
@@ -214,11 +252,13 @@ def _rmse(records) -> Finding:
 
 def _compute(records) -> Finding:
     text = (
-        f"Compute per 75 s case: about {PAPER_COMPUTE_S['optimized']:.0f} s (Optimized) and "
-        f"{PAPER_COMPUTE_S['sequential']:.0f} s (Sequential)"
+        f"Compute per 75 s case: about {PAPER_COMPUTE_S['optimized']:.0f} s "
+        f"({controller_short_label('optimized')}) and "
+        f"{PAPER_COMPUTE_S['sequential']:.0f} s ({controller_short_label('sequential')})"
     )
     meas, why, ratios = [], [], []
-    for ctrl, label in (("optimized", "Optimized"), ("sequential", "Sequential")):
+    for ctrl in ("optimized", "sequential"):
+        label = controller_short_label(ctrl)
         runs = [
             r
             for r in _by(records, ctrl).values()
@@ -268,7 +308,8 @@ def _robust(records) -> Finding:
     """Where the paper variants fail and the robust defaults do not, from the rows alone."""
     text = "(not the paper's) The robust defaults dock wherever the paper variants do, and more"
     rows, parts, why, worse = list(records), [], [], []
-    for ctrl, label in _LABEL.items():
+    for ctrl in CONTROLLERS:
+        label = controller_label(ctrl)
         paper, robust = _runs(rows, f"{ctrl}@paper"), _runs(rows, ctrl)
         both = sorted(set(paper) & set(robust))
         if not both:
@@ -296,10 +337,11 @@ def _robust(records) -> Finding:
 
 
 def check_findings(records: Sequence[dict[str, Any]]) -> list[Finding]:
-    """Check each finding of parameters.md section 5b against a campaign's table rows.
+    """Check each finding of docs/parameter-sources.md section 5b against a campaign's table rows.
 
-    A finding whose runs are not all in the campaign is "not run".  Every explanation is
-    built from the rows' own figures (module docstring).
+    A finding is checked on the cases the campaign ran (and says so when that is not all six);
+    one with no runs to check is "not run".  Every explanation is built from the rows' own
+    figures (module docstring).
     """
     return [
         _docking(records, "oracle", _ALL),

@@ -5,7 +5,9 @@ The figures mirror the paper's: Fig. 2 (top-view trajectories, one panel per cas
 bars with one bar per controller and one group per case.
 
 Every controller has one fixed colour (:data:`CONTROLLER_COLORS`, :func:`controller_color`)
-shared by all figures, so a controller looks the same everywhere.
+shared by all figures, so a controller looks the same everywhere; the colours, display names
+and order of the registered controllers come from the registry
+(:data:`auvdock.controllers.registry.CONTROLLERS`).
 
 Figures are drawn on :class:`matplotlib.figure.Figure` objects with an explicit Agg canvas:
 no pyplot, no global backend switch, no GUI.  Saving drops the time stamps and version
@@ -35,6 +37,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, Patch
 
+from auvdock.controllers.registry import CONTROLLERS, controller_label, controller_names
 from auvdock.results.store import RunResults
 
 __all__ = [
@@ -48,26 +51,16 @@ __all__ = [
     "plot_campaign",
 ]
 
-#: Canonical order of the controllers in legends and within each bar group.
-CONTROLLER_ORDER: tuple[str, ...] = ("naive", "kinematic", "oracle", "sequential", "optimized")
+#: Canonical order of the controllers in legends and within each bar group: the registry's
+#: (:data:`auvdock.controllers.registry.CONTROLLERS`).
+CONTROLLER_ORDER: tuple[str, ...] = controller_names()
 
-#: Fixed colour per known controller (colour-blind-safe Okabe-Ito hues), used by every figure.
-CONTROLLER_COLORS: dict[str, str] = {
-    "naive": "#D55E00",  # vermillion
-    "kinematic": "#E69F00",  # orange
-    "oracle": "#009E73",  # bluish green
-    "sequential": "#0072B2",  # blue
-    "optimized": "#CC79A7",  # reddish purple
-}
+#: Fixed colour per registered controller (its ``colour`` in the registry), used by every figure.
+CONTROLLER_COLORS: dict[str, str] = {n: e.colour for n, e in CONTROLLERS.items() if e.colour}
 
-#: Display name per known controller; unknown controllers are shown by their own name.
-CONTROLLER_LABELS: dict[str, str] = {
-    "naive": "Naive MPC",
-    "kinematic": "Kinematic MPC",
-    "oracle": "Oracle MPC",
-    "sequential": "Sequential FSE-MPC",
-    "optimized": "Optimized FSE-MPC",
-}
+#: Display name per registered controller (its ``label`` in the registry); other controllers are
+#: shown by their own name.
+CONTROLLER_LABELS: dict[str, str] = {n: controller_label(n) for n in CONTROLLERS}
 
 #: Base names of the files :func:`plot_campaign` writes, in order.
 FIGURE_NAMES: tuple[str, ...] = (
@@ -103,11 +96,6 @@ def controller_color(name: str) -> str:
     if name in CONTROLLER_COLORS:
         return CONTROLLER_COLORS[name]
     return _FALLBACK_COLORS[zlib.crc32(str(name).encode("utf-8")) % len(_FALLBACK_COLORS)]
-
-
-def controller_label(name: str) -> str:
-    """Display name of controller ``name`` (e.g. ``"Oracle MPC"``); unknown names are returned as is."""
-    return CONTROLLER_LABELS.get(name, str(name))
 
 
 def plot_campaign(
@@ -373,15 +361,10 @@ _TRAJECTORY_MARKS: dict[str, dict[str, Any]] = {
     "end (not docked)": {"ls": "", "marker": "X", "ms": 8, "mfc": "0.45", "mec": "k", "mew": 0.8},
 }
 
-# Line style of each controller's path in fig2: where paths coincide, the later controller's
-# dashes (drawn on top, thinner) let the earlier one show through.
-_CONTROLLER_LINESTYLES: dict[str, Any] = {
-    "naive": "-",
-    "kinematic": "-",
-    "oracle": (0, (5, 2)),
-    "sequential": (0, (1, 1.5)),
-    "optimized": (0, (6, 2, 1, 2)),
-}
+# Line style of each registered controller's path in fig2, by its place in the registry's order:
+# where paths coincide, the later controller's dashes (drawn on top, thinner) let the earlier one
+# show through.
+_REGISTERED_LINESTYLES: tuple[Any, ...] = ("-", "-", (0, (5, 2)), (0, (1, 1.5)), (0, (6, 2, 1, 2)))
 _FALLBACK_LINESTYLES: tuple[Any, ...] = ((0, (3, 1, 1, 1)), (0, (8, 2)), (0, (2, 2)), "-")
 _PATH_WIDTHS: tuple[float, ...] = (3.4, 2.6, 2.0, 1.6, 1.3)  # by drawing order (later: thinner)
 _SAME_PATH_FRACTION = 0.01  # paths closer than this fraction of the panel's span count as one
@@ -391,8 +374,8 @@ _INSET_TOLERANCES = 3.0  # the dock inset shows this many tolerance radii around
 
 def _controller_linestyle(name: str, index: int) -> Any:
     """Line style of controller ``name`` (``index``: its position among the campaign's controllers)."""
-    if name in _CONTROLLER_LINESTYLES:
-        return _CONTROLLER_LINESTYLES[name]
+    if name in CONTROLLER_ORDER and CONTROLLER_ORDER.index(name) < len(_REGISTERED_LINESTYLES):
+        return _REGISTERED_LINESTYLES[CONTROLLER_ORDER.index(name)]
     return _FALLBACK_LINESTYLES[index % len(_FALLBACK_LINESTYLES)]
 
 

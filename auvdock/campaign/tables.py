@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from auvdock.campaign.compare import TABLE_COLUMNS
-from auvdock.campaign.findings import check_findings
+from auvdock.campaign.findings import check_findings, coverage_note
 
 __all__ = ["SUMMARY_HEADER", "FINDINGS_HEADER", "summary_rows", "markdown_table", "write_tables"]
 
@@ -109,8 +109,9 @@ def write_tables(records: Sequence[dict[str, Any]], out_dir: str | Path, attrs: 
     fd_path = out / "findings.md"
     rows = [[f.finding, f.measured, f.verdict, f.explanation] for f in check_findings(records)]
     fd_path.write_text(
-        "# The paper's findings (parameters.md section 5b), checked\n\n"
+        "# The paper's findings (docs/parameter-sources.md section 5b), checked\n\n"
         "Every explanation is computed from this campaign's table.\n\n"
+        + (f"{note}\n\n" if (note := coverage_note(records)) else "")
         + markdown_table(FINDINGS_HEADER, rows)
     )
     return [csv_path, md_path, fd_path]

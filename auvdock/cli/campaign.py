@@ -59,7 +59,8 @@ def _campaign_outputs(path: Path, out_dir: Path, *, pdf: bool, plots: bool, reco
         )
     )
     ft = Table(
-        title="the paper's findings (docs/parameter-sources.md section 5b), explained with this campaign's figures",
+        title="the paper's findings (docs/parameter-sources.md section 5b), explained with this campaign's "
+        "figures",
         show_lines=True,
     )
     for h in ("finding", "measured here", "verdict", "why it differs"):

@@ -17,6 +17,7 @@ from rich.markup import escape
 from auvdock.cli.app import (
     app,
     check_controller,
+    check_estimation,
     console,
     err_console,
     exit_interrupted,
@@ -57,7 +58,7 @@ def _camera_line(path: Path) -> str:
 
 @app.command()
 def fly(
-    mission: Path = typer.Argument(..., help="Mission YAML file (e.g. missions/tank_0p6hz.yaml)."),
+    mission: Path = typer.Argument(..., help="Mission YAML file or shipped mission name (e.g. tank_0p6hz)."),
     port: str = typer.Option(
         "udp:14550",
         "--port",
@@ -98,9 +99,7 @@ def fly(
     from auvdock.fly.link import MavlinkLink, connection_string
 
     m = load_or_exit(mission)
-    if estimation is not None:
-        if estimation not in ("truth", "filter"):
-            fail_input(f"--estimation: must be truth or filter (got {estimation!r})")
+    if check_estimation(estimation) is not None:
         m = m.with_updates(estimation=estimation)
     if controller is not None:
         check_controller(controller)

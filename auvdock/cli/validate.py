@@ -38,7 +38,9 @@ def _describe(field_path: str) -> str:
 
 
 @app.command()
-def validate(mission: Path = typer.Argument(..., help="Mission YAML file.")) -> None:
+def validate(
+    mission: Path = typer.Argument(..., help="Mission YAML file or shipped mission name (e.g. gyre)."),
+) -> None:
     """Check a mission file and print it with every default filled in."""
     m = load_or_exit(mission)
     rows: list[tuple[str, str]] = []

@@ -121,6 +121,33 @@ def connection_string(port: str) -> str:
     raise ValueError(f"not a connection string (expected {PORT_FORMS})")
 
 
+def no_heartbeat_hint(port: str) -> str:
+    """What to check when no ArduSub heartbeat came on ``port`` (``--port``): the clause after
+    "no ArduSub heartbeat on PORT within T s" in the error line."""
+    try:
+        url = connection_string(port)
+    except ValueError:
+        url = port
+    m = _NETWORK.match(url)
+    if m is None:  # a serial device
+        return f"is the autopilot connected on {url} (and at that baud rate)?"
+    kind, host, number = m.groups()
+    if kind in ("udp", "udpin"):  # we listen: the vehicle must send here
+        at = "this computer's" if host in ("0.0.0.0", "") else f"{host}'s"
+        return (
+            f"is `auvdock vehicle-sim` running (it sends to udpout:127.0.0.1:14550 unless its --port says "
+            f"otherwise), or the vehicle's BlueOS sending MAVLink to {at} port {number}? (BlueOS: the "
+            f"MAVLink Endpoints page, a UDP Client endpoint to the topside's address and port {number}; "
+            f"--port udp:{number} listens on 0.0.0.0:{number})"
+        )
+    if kind == "udpbcast":
+        return f"is the vehicle (or `auvdock vehicle-sim`) on the network that {host} broadcasts to?"
+    return (  # udpout, tcp, tcpin: the vehicle's side must listen on (or connect to) HOST:PORT
+        f"is `auvdock vehicle-sim --port udpin:{host}:{number}` running, or a BlueOS MAVLink endpoint "
+        f"(the MAVLink Endpoints page) serving {host}:{number}?"
+    )
+
+
 class MavlinkLink:
     """GCS-side MAVLink link to one ArduSub vehicle.
 
@@ -253,7 +280,9 @@ class MavlinkLink:
                 hb = msg
                 break
         if hb is None:
-            raise LinkError(f"no ArduSub heartbeat on {self.port} within {timeout_s:g} s")
+            raise LinkError(
+                f"no ArduSub heartbeat on {self.port} within {timeout_s:g} s: {no_heartbeat_hint(self.port)}"
+            )
         self.target_system = hb.get_srcSystem()
         self.target_component = hb.get_srcComponent()
         with self._lock:

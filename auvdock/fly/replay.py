@@ -15,7 +15,9 @@ records the channels the controller asked for (a dry-run flight recorded neutral
 
 Limits: ``dock.source: camera`` flights are not replayable (the dock fixes come from camera
 frames, which the tlog does not hold); a tlog written before this marking (auvdock before
-issue 15) has no markers and is refused.
+issue 15) has no markers and is refused; the tlog of a flight that ended before its first
+control step (no vehicle answered, a check refused to arm, ...) has nothing to replay, and
+the error says so and where it stopped.
 """
 
 from __future__ import annotations
@@ -36,6 +38,17 @@ from auvdock.fly.session import FlyAbortError, FlyResult, FlySession
 __all__ = ["ReplayError", "ReplayLink", "ReplayClock", "FlightTag", "read_tag", "replay"]
 
 MARKER_PREFIX = "auvd_"
+#: The marker of a control step: a tlog without one ended before its first step.
+STEP_MARKER = "auvd_step"
+#: Where a flight that ended before its first step stopped, by the last stage's marker it wrote
+#: (:class:`auvdock.fly.session.FlySession`; the latest stage first).
+_STAGES = (
+    ("auvd_arm", "while arming"),
+    ("auvd_mode", "while setting the vehicle's mode to MANUAL"),
+    ("auvd_frame", "after the telemetry wait, before arming (camera start or pre-flight checks)"),
+    ("auvd_wait", "waiting for telemetry"),
+    ("auvd_param", "reading the vehicle's parameters"),
+)
 _NUM = r"[0-9.eE+-]+"
 _TAG = re.compile(rf"^auvdock fly (?P<controller>\w+) dt=(?P<dt>{_NUM})(?: timeout=(?P<timeout>{_NUM}))?")
 
@@ -92,6 +105,32 @@ def _is_marker(msg: Any) -> bool:
     return msg.get_type() == "NAMED_VALUE_INT" and str(msg.name).startswith(MARKER_PREFIX)
 
 
+def _is_vehicle_heartbeat(msg: Any) -> bool:
+    sub, apm = mavutil.mavlink.MAV_TYPE_SUBMARINE, mavutil.mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA
+    return msg.get_type() == "HEARTBEAT" and msg.type == sub and msg.autopilot == apm
+
+
+def _only_ground_station(messages: list[tuple[int, Any]]) -> bool:
+    """Whether the tlog holds nothing but a ground station's own messages: what ``fly`` records
+    when no vehicle ever answered (its GCS heartbeat every second while it waits, the neutral
+    overrides it sends on the way out)."""
+    gcs = mavutil.mavlink.MAV_TYPE_GCS
+    ours = {m.get_srcSystem() for _, m in messages if m.get_type() == "HEARTBEAT" and m.type == gcs}
+    return bool(ours) and all(m.get_srcSystem() in ours for _, m in messages)
+
+
+def _ended_before_first_step(messages: list[tuple[int, Any]]) -> str:
+    """Why a flight's tlog has nothing to replay (the flight ended before its first control step)."""
+    text = "the flight ended before its first control step (nothing to replay)"
+    if not any(_is_vehicle_heartbeat(m) for _, m in messages):
+        return text + ": no vehicle ever answered (no ArduSub heartbeat in the tlog)"
+    reached = {str(m.name) for _, m in messages if _is_marker(m)}
+    for marker, stage in _STAGES:
+        if marker in reached:
+            return text + f": it stopped {stage}"
+    return text
+
+
 def read_tag(messages: list[tuple[int, Any]]) -> FlightTag | None:
     """The flight's tag (controller, dt, timeout), or None if the tlog has none."""
     for _, msg in messages:
@@ -126,6 +165,9 @@ class ReplayLink:
         own = [m.get_srcSystem() for _, m in self._msgs if _is_marker(m)]
         #: The flight's own system id (the one that wrote the markers).
         self.sysid = own[0] if own else 255
+        steps = any(_is_marker(m) and str(m.name) == STEP_MARKER for _, m in self._msgs)
+        if not steps and (own or _only_ground_station(self._msgs) or read_tag(self._msgs) is not None):
+            raise ReplayError(f"{self.path}: {_ended_before_first_step(self._msgs)}")
         if not own:
             raise ReplayError(
                 f"{self.path}: no auvdock step markers (not written by auvdock fly, or by a version "

@@ -29,7 +29,7 @@ from auvdock.sensing.settings import SensorSettings
 from auvdock.vehicle import Vehicle
 
 if TYPE_CHECKING:
-    from auvdock.world.dock import HeaveDock
+    from auvdock.world.dock import HeaveDock, TrackedDock
 
 __all__ = ["Autopilot", "build_autopilot"]
 
@@ -41,7 +41,7 @@ class Autopilot:
     ----------
     settings : MPCSettings
         The controller's settings (its ``type`` picks it from the registry).
-    vehicle, dock : Vehicle, HeaveDock
+    vehicle, dock : Vehicle, HeaveDock or TrackedDock
         The vehicle model and the dock whose motion is known (Assumption 2).
     estimator, sensors : EstimatorSettings, SensorSettings, optional
         The flow estimator's settings and the sensor noise it accounts for.
@@ -60,7 +60,7 @@ class Autopilot:
         self,
         settings: MPCSettings,
         vehicle: Vehicle,
-        dock: HeaveDock,
+        dock: HeaveDock | TrackedDock,
         estimator: EstimatorSettings | None = None,
         sensors: SensorSettings | None = None,
         estimation: EstimationStage | None = None,
@@ -113,8 +113,11 @@ class Autopilot:
         :meth:`set_applied`)."""
         t0 = time.perf_counter()
         timing.begin()
-        with timing.part("estimation"):
+        if self.estimation.mode == "truth":  # the state as given: nothing to time
             est, recorded = self.estimation.step(readings, self.u_applied)
+        else:
+            with timing.part("estimation"):
+                est, recorded = self.estimation.step(readings, self.u_applied)
         if self.estimation.settling(readings.t):  # no control on a filter that has not settled
             nan = {k: np.full(s, np.nan) for k, s in self.extra_series.items() if k not in recorded}
             out = ControlOutput(
@@ -137,7 +140,7 @@ class Autopilot:
 
 
 def build_autopilot(
-    mission: Mission, vehicle: Vehicle, dock: HeaveDock, controller: str | None = None
+    mission: Mission, vehicle: Vehicle, dock: HeaveDock | TrackedDock, controller: str | None = None
 ) -> Autopilot:
     """The autopilot a mission describes; ``controller`` overrides its type (shared settings kept).
 
