@@ -105,7 +105,7 @@ def _sim_run(args: tuple[str, str, int]) -> tuple[np.ndarray, np.ndarray, np.nda
     from auvdock.loop.autopilot import build_autopilot
     from auvdock.loop.simulation import simulate
     from auvdock.results.store import read_run
-    from auvdock.sensing.sensors import SensorSuite
+    from auvdock.sensing.simulated import SensorSuite
     from auvdock.vehicle.state import NX, POS, YAW
 
     m = load_mission(mission_path(case)).with_updates(estimation="filter", seed=seed)

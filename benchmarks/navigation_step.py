@@ -23,8 +23,8 @@ def main() -> None:
     if args.never_compile:
         os.environ["AUVDOCK_COMPILE"] = "never"
     from auvdock.estimation.navigation_filter import NavigationFilter, NavigationSettings
-    from auvdock.sensing.readings import Reading
     from auvdock.sensing import measurements as ms
+    from auvdock.sensing.readings import Reading
     from auvdock.vehicle import load_vehicle
 
     dt = 0.05

@@ -11,13 +11,16 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
 
 from auvdock.camera.model import CameraModel, gray_image
 from auvdock.runtime.clock import Clock, wall_clock
+
+if TYPE_CHECKING:
+    from auvdock.camera.video_in import FrameSource
 
 __all__ = [
     "IMAGE_SUFFIXES",
@@ -212,7 +215,7 @@ class NoVideoError(ValueError):
 
 
 def collect_views(
-    source: Any,
+    source: FrameSource,
     cols: int,
     rows: int,
     *,

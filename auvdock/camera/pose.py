@@ -121,10 +121,10 @@ class MarkerDetector:
                 f"image: size {w}x{h} px does not match the camera model's "
                 f"{self.camera.image_size[0]}x{self.camera.image_size[1]} px"
             )
-        corners, ids, _ = self._detector.detectMarkers(image)
-        if ids is None:
+        corners, found_ids, _ = self._detector.detectMarkers(image)
+        if found_ids is None:
             return []
-        ids = [int(i) for i in np.asarray(ids).ravel()]
+        ids = [int(i) for i in np.asarray(found_ids).ravel()]
         by_id: dict[int, list[np.ndarray]] = {}
         for i, c in zip(ids, corners, strict=True):
             if i in self._ids:
@@ -223,9 +223,10 @@ def refine_corners(image: np.ndarray, corners: np.ndarray, cells: int, camera: C
     img = image.astype(np.float32)
     refined = corners
     for _ in range(2):  # the second pass centres the profiles on the edges found by the first
-        refined = _refine_once(img, refined, cells, camera)
-        if refined is None:
+        once = _refine_once(img, refined, cells, camera)
+        if once is None:
             return corners
+        refined = once
     side = np.linalg.norm(corners - np.roll(corners, -1, axis=0), axis=1).mean()
     if np.max(np.linalg.norm(refined - corners, axis=1)) > max(2.0, 0.5 * side / cells):
         return corners
@@ -242,7 +243,7 @@ def _refine_once(img: np.ndarray, corners: np.ndarray, cells: int, camera: Camer
         if camera.has_distortion:
             pts = cv2.undistortPoints(pts.reshape(-1, 1, 2), camera.K, camera.dist, P=camera.K).reshape(-1, 2)
         lines.append(_fit_line(pts))
-    out = np.empty((4, 2))
+    out: np.ndarray = np.empty((4, 2))
     for k in range(4):
         (n1, c1), (n2, c2) = lines[k - 1], lines[k]  # the sides ending and starting at corner k
         A = np.array([n1, n2])

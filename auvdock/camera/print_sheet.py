@@ -15,11 +15,15 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from auvdock.camera.layout import Marker, MarkerLayout, marker_image
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
 __all__ = [
     "PAPER_MM",
@@ -76,7 +80,7 @@ def _marker_label(m: Marker) -> str:
     return label
 
 
-def _draw_markers(ax: Any, layout: MarkerLayout, *, clip: bool = False) -> None:
+def _draw_markers(ax: Axes, layout: MarkerLayout, *, clip: bool = False) -> None:
     """Every marker with its quiet zone, dashed cut line (1 mm outside) and label, in dock (y, -z) axes."""
     from matplotlib.patches import Rectangle
 
@@ -166,7 +170,7 @@ def write_sheet(layout: MarkerLayout, path: str | Path, pdf: bool = True, *, dpi
     return path
 
 
-def _save_raster_or_pdf(fig: Any, path: Path, fmt: str, dpi: int) -> None:
+def _save_raster_or_pdf(fig: Figure, path: Path, fmt: str, dpi: int) -> None:
     if fmt == "pdf":
         fig.savefig(path, format="pdf", metadata={"CreationDate": None})
     elif fmt == "jpeg":
@@ -443,7 +447,7 @@ def _free_segments(lo: float, hi: float, blocked: list[tuple[float, float]]) -> 
     return out
 
 
-def _page_figure(layout: MarkerLayout, plan: SheetPlan, page: SheetPage) -> Any:
+def _page_figure(layout: MarkerLayout, plan: SheetPlan, page: SheetPage) -> Figure:
     """The figure of one page, exactly the paper size, panel piece at true scale (1 m = 1000 mm)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure

@@ -60,7 +60,7 @@ class _Canvas:
             self.K[1, 2] -= y0
             w, h = cw, ch
         self.background = float(background)
-        self.image = np.full((h, w), self.background, dtype=np.float32)
+        self.image: np.ndarray = np.full((h, w), self.background, dtype=np.float32)
 
     def draw(self, corners_c: np.ndarray, make_texture: Callable[[int], np.ndarray], cells: int) -> None:
         """Composite a planar texture.
@@ -95,7 +95,7 @@ class _Canvas:
         to_sub = np.array([[S, 0.0, S * (0.5 - x0) - 0.5], [0.0, S, S * (0.5 - y0) - 0.5], [0.0, 0.0, 1.0]])
         H = to_sub @ _homography(src, dst)
         size = (S * bw, S * bh)
-        kw = {"flags": cv2.INTER_LINEAR, "borderMode": cv2.BORDER_CONSTANT, "borderValue": 0}
+        kw: dict[str, Any] = {"flags": cv2.INTER_LINEAR, "borderMode": cv2.BORDER_CONSTANT, "borderValue": 0}
         warped = cv2.warpPerspective(tex, H, size, **kw)
         cover = cv2.warpPerspective(np.ones_like(tex), H, size, **kw)
         if S > 1:
@@ -223,8 +223,13 @@ def render_view(
         corners_c = (outer_m @ m.R_dm().T + m.t_dm()) @ R_cd.T + t_cd
         targets.append((float(np.linalg.norm(corners_c.mean(axis=0))), m.id, corners_c))
     for _, marker_id, corners_c in sorted(targets, key=lambda item: -item[0]):
-        canvas.draw(corners_c, lambda q, i=marker_id: marker_image(layout, i, q * cells), cells)
+        canvas.draw(corners_c, _marker_texture(layout, marker_id, cells), cells)
     return canvas.finish(noise_std, blur_px, rng)
+
+
+def _marker_texture(layout: MarkerLayout, marker_id: int, cells: int) -> Callable[[int], np.ndarray]:
+    """``make_texture`` of :meth:`_Canvas.draw` for one marker: ``q`` texels per cell."""
+    return lambda q: marker_image(layout, marker_id, q * cells)
 
 
 def checkerboard_texture(cols: int, rows: int, texels_per_square: int) -> np.ndarray:

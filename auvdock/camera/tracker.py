@@ -32,9 +32,9 @@ from __future__ import annotations
 
 import collections
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -42,11 +42,14 @@ from auvdock.camera.layout import MarkerLayout
 from auvdock.camera.model import CameraModel, CameraMount, camera_from_dock
 from auvdock.camera.pose import MarkerDetector, estimate_dock_pose
 from auvdock.camera.render import render_view
-from auvdock.camera.video_in import Frame, LatestFrameGrabber
+from auvdock.camera.video_in import Frame, FrameSource, LatestFrameGrabber
 from auvdock.runtime.clock import Clock, wall_clock
 from auvdock.vehicle.geometry import rotation_zyx
 from auvdock.vehicle.state import POS
 from auvdock.world.dock import HeaveDock
+
+if TYPE_CHECKING:
+    from auvdock.config.mission import Mission
 
 __all__ = ["SyntheticCamera", "DockFix", "DockTracker", "TrackingMonitor"]
 
@@ -94,7 +97,7 @@ class SyntheticCamera:
         rate_hz: float = 15.0,
         noise_std: float = 2.0,
         blur_px: float = 0.5,
-        offset_ned_m: np.ndarray | list[float] = (0.0, 0.0, 0.0),
+        offset_ned_m: np.ndarray | Sequence[float] = (0.0, 0.0, 0.0),
         dropout_s: list[list[float]] | None = None,
         seed: int = 0,
         clock: Clock | None = None,
@@ -117,7 +120,7 @@ class SyntheticCamera:
     @classmethod
     def from_mission(
         cls,
-        mission: Any,
+        mission: Mission,
         dock: HeaveDock,
         pose_fn: PoseFn,
         *,
@@ -134,7 +137,7 @@ class SyntheticCamera:
         return cls(
             mission.build_camera(),
             mission.dock.marker_layout(),
-            CameraMount(tuple(c.mount.position_body_m), tuple(c.mount.rpy_deg)),
+            c.mount.build(),
             dock,
             pose_fn,
             rate_hz=sy.rate_hz,
@@ -257,7 +260,7 @@ class DockTracker:
 
     def __init__(
         self,
-        source,
+        source: FrameSource,
         camera: CameraModel,
         layout: MarkerLayout,
         mount: CameraMount,

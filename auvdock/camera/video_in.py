@@ -130,7 +130,7 @@ class Frame:
     @property
     def shape(self) -> tuple[int, int]:
         """(h, w) in px."""
-        return self.image.shape  # type: ignore[return-value]
+        return self.image.shape
 
     def age_s(self, now: float | None = None) -> float:
         """Time since capture, s (``now`` defaults to ``time.monotonic()``)."""
@@ -151,6 +151,12 @@ class FrameSource(Protocol):
     def read(self, timeout_s: float) -> Frame | None: ...
 
     def close(self) -> None: ...
+
+    def __enter__(self) -> Self: ...
+
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None: ...
 
 
 def _check_timeout(timeout_s: float) -> float:

@@ -18,6 +18,7 @@ from rich.progress import (
     MofNCompleteColumn,
     Progress,
     SpinnerColumn,
+    TaskID,
     TextColumn,
     TimeElapsedColumn,
 )
@@ -84,7 +85,7 @@ class CampaignProgress:
         self._now = 0
         self._failed = 0
         self._t0 = time.perf_counter()
-        self._overall = None
+        self._overall: TaskID | None = None
 
     def __enter__(self) -> CampaignProgress:
         self.bar.__enter__()
@@ -101,7 +102,8 @@ class CampaignProgress:
         left = self.total - self._done
         eta = (time.perf_counter() - self._t0) / self._now * left if self._now else None
         info = _eta(eta if left else 0.0) + (f"  [red]{self._failed} failed[/red]" if self._failed else "")
-        self.bar.update(self._overall, completed=self._done, info=info)
+        if self._overall is not None:
+            self.bar.update(self._overall, completed=self._done, info=info)
 
     def _run_task(self, spec: RunSpec, info: str) -> Any:
         if spec.run_id not in self._tasks:

@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeGuard
 
 from auvdock.controllers.registry import CONTROLLERS, controller_label, controller_short_label
 
@@ -43,7 +43,8 @@ class Finding:
     explanation: str = ""
 
 
-def _ok(v: Any) -> bool:
+def _ok(v: Any) -> TypeGuard[float]:
+    """A finite number (not None, not NaN)."""
     return v is not None and isinstance(v, int | float) and math.isfinite(v)
 
 
@@ -108,8 +109,8 @@ def _why_not_docked(case: int, r: dict[str, Any]) -> str:
     ca, tol = r.get("closest_approach_m"), r.get("tolerance_m")
     if _ok(ca):
         near = f"closest approach {ca:.3f} m"
-        if _ok(tol) and tol > 0:
-            near += f" ({ca / tol:.1f} times the {tol:.3f} m tolerance)"
+        if _ok(tol) and float(tol) > 0:
+            near += f" ({float(ca) / float(tol):.1f} times the {float(tol):.3f} m tolerance)"
         bits.append(near)
     if _ok(r.get("path_length_m")):
         bits.append(f"path {r['path_length_m']:.2f} m")
@@ -192,8 +193,8 @@ def _travel(records) -> Finding:
         early = [c for c in common if not t(a, c) > t(b, c)]
         if early:
             by = ", ".join(f"{t(b, c) - t(a, c):.2f}" for c in early)
-            cases = f"case{'s' if len(early) > 1 else ''} {_cases(early)}"
-            why.append(f"{an} docks no later than {bn} in {cases} (earlier by {by} s).")
+            which = f"case{'s' if len(early) > 1 else ''} {_cases(early)}"
+            why.append(f"{an} docks no later than {bn} in {which} (earlier by {by} s).")
     if left:
         why.append(left)
     return Finding(text, measured, "differs", " ".join(why))
@@ -321,8 +322,9 @@ def _robust(records) -> Finding:
             p = paper[c]
             bits = [f"{label} case {c}: the paper variant"]
             ca, tol = p.get("closest_approach_m"), p.get("tolerance_m")
-            if _ok(ca) and _ok(tol) and tol > 0:
-                bits.append(f"came no closer than {ca:.3f} m ({ca / tol:.1f} times the tolerance)")
+            if _ok(ca) and _ok(tol) and float(tol) > 0:
+                ratio = float(ca) / float(tol)
+                bits.append(f"came no closer than {float(ca):.3f} m ({ratio:.1f} times the tolerance)")
             if _ok(p.get("flow_final_error_m_s")):
                 bits.append(f"with its flow estimate {p['flow_final_error_m_s']:.3f} m/s off at the end")
             bits.append(f"; the robust default docked at {robust[c]['time_to_dock_s']:.2f} s")

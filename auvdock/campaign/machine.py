@@ -21,7 +21,7 @@ def machine_info() -> dict[str, Any]:
         "processor": platform.processor(),
         "cpu_count": os.cpu_count(),
         "python": platform.python_version(),
-        "casadi": casadi.__version__,
+        "casadi": casadi.__version__,  # type: ignore[attr-defined]  # set at import, not in its stub
         "numpy": np.__version__,
     }
 

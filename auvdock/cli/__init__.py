@@ -46,7 +46,7 @@ from auvdock.cli import validate, sim, campaign, fly, sitl, bench, camera, cache
 try:  # typer vendors click since 0.2x; older ones use click itself
     from typer._click import exceptions as _cx  # noqa: E402
 except ImportError:  # pragma: no cover
-    from click import exceptions as _cx  # noqa: E402
+    from click import exceptions as _cx  # type: ignore[no-redef]  # noqa: E402
 
 from auvdock.cli.app import app, err_console, interrupt_reported  # noqa: E402
 

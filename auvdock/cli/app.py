@@ -29,7 +29,7 @@ def _usage_name(self) -> str:  # noqa: ANN001 -- a method of typer.core.TyperArg
 # typer 0.29 writes required arguments as ``{mission}`` in the usage line (and, in its rich help,
 # flags as taking ``<bool>``): the help is click's plain layout, with click's argument names
 if hasattr(typer.core.TyperArgument, "_usage_display_name"):
-    typer.core.TyperArgument._usage_display_name = _usage_name
+    typer.core.TyperArgument._usage_display_name = _usage_name  # type: ignore[method-assign]  # typer internal
 
 app = typer.Typer(
     name="auvdock",

@@ -13,9 +13,12 @@ from __future__ import annotations
 import types
 import typing
 from collections.abc import Sequence
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError
+
+if TYPE_CHECKING:
+    from pydantic_core import ErrorDetails
 
 __all__ = [
     "Strict",
@@ -133,7 +136,7 @@ def _holder(model: Any, loc: Sequence[Any]) -> Any:
     return holder
 
 
-def _problem(model: Any, err: dict[str, Any]) -> str:
+def _problem(model: Any, err: ErrorDetails) -> str:
     kind = err.get("type", "")
     msg = str(err.get("msg", "invalid"))
     if kind == "extra_forbidden":

@@ -36,7 +36,7 @@ from auvdock.controllers.solvers import SOLVERS
 from auvdock.estimation.flow_filter import EstimatorSettings
 from auvdock.sensing.settings import SensorSettings
 from auvdock.vehicle import Vehicle
-from auvdock.world.dock import HeaveDock
+from auvdock.world.dock import HeaveDock, TrackedDock
 
 __all__ = [
     "ControllerEntry",
@@ -194,7 +194,7 @@ def settings_for(name: str, like: MPCSettings | None = None) -> MPCSettings:
         raise ValueError(f"unknown controller {name!r} (known: {', '.join(CONTROLLERS)})")
     cls = CONTROLLERS[name].settings
     if like is None:
-        return cls()
+        return cls.model_validate({})  # every settings class has its type as a default
     if like.type == name:
         return like
     shared = {k: v for k, v in like.model_dump().items() if k in cls.model_fields and k != "type"}
@@ -231,7 +231,7 @@ def resolve_solver(name: str, controller: str, variant: str | None = None) -> st
 def build_controller(
     settings: MPCSettings,
     vehicle: Vehicle,
-    dock: HeaveDock,
+    dock: HeaveDock | TrackedDock,
     estimator: EstimatorSettings | None = None,
     sensors: SensorSettings | None = None,
 ) -> Controller:

@@ -46,7 +46,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING
 
 import casadi as ca
 import numpy as np
@@ -60,6 +60,9 @@ from auvdock.sensing import measurements
 from auvdock.sensing.readings import Reading
 from auvdock.vehicle.model import rk4
 from auvdock.vehicle.state import ANG, ATT, LIN, NX, POS, YAW
+
+if TYPE_CHECKING:
+    from auvdock.vehicle import Vehicle
 
 __all__ = ["NavigationSettings", "NavEstimate", "NavigationFilter", "NZ"]
 
@@ -210,7 +213,7 @@ class NavEstimate:
     n_meas: int = 0
 
 
-def _second_order_covariance(f: ca.SX, z: ca.SX, P: ca.SX, h: Any, n: int) -> ca.SX:
+def _second_order_covariance(f: ca.SX, z: ca.SX, P: ca.SX, h: float | ca.SX, n: int) -> ca.SX:
     """The covariance the first-order prediction leaves out (Gaussian second-order filter).
 
     Over a step ``h`` the state moves by ``h f(z)``; for an error ``e ~ N(0, P)`` its second-order
@@ -230,13 +233,14 @@ def _second_order_covariance(f: ca.SX, z: ca.SX, P: ca.SX, h: Any, n: int) -> ca
     dP = ca.SX.zeros(n, n)
     for i in range(nf):
         for j in range(i, nf):
-            if M[i] is not None and M[j] is not None:
-                dP[i, j] = dP[j, i] = 0.5 * h * h * ca.sum1(ca.sum2(M[i] * M[j].T))
+            Mi, Mj = M[i], M[j]
+            if Mi is not None and Mj is not None:
+                dP[i, j] = dP[j, i] = 0.5 * h * h * ca.sum1(ca.sum2(Mi * Mj.T))
     return dP
 
 
 def _step_function(
-    vehicle: Any, substeps: int, second_order: bool = True
+    vehicle: Vehicle, substeps: int, second_order: bool = True
 ) -> tuple[ca.Function, ca.Function, ca.Function]:
     """The measurement model ``(z, u) -> (y_all, H_all)``, its second-order covariance
     ``(z, u, P) -> (NY x NY)`` and the step ``(z[NZ], P[NZ x NZ], u[n], h, qd[NZ]) -> (z_next,
@@ -250,7 +254,7 @@ def _step_function(
 
     def zdot(zz: ca.SX) -> ca.SX:
         vc = ca.vertcat(zz[NX], zz[NX + 1], 0)
-        return ca.vertcat(m.dynamics(zz[0:NX], u, vc, ca.DM.zeros(3)), ca.DM.zeros(NZ - NX))
+        return ca.vertcat(m.dynamics(zz[0:NX], u, vc, ca.DM.zeros(3)), ca.SX.zeros(NZ - NX))
 
     z_next = rk4(zdot, z, h, substeps)
     F = ca.jacobian(z_next, z)
@@ -302,7 +306,7 @@ class NavigationFilter:
         The control period, s: the longest single prediction (longer gaps are split).
     """
 
-    def __init__(self, settings: NavigationSettings, vehicle: Any, dt: float) -> None:
+    def __init__(self, settings: NavigationSettings, vehicle: Vehicle, dt: float) -> None:
         if not dt > 0:
             raise ValueError(f"dt must be > 0, got {dt}")
         self.settings = settings
@@ -347,7 +351,10 @@ class NavigationFilter:
             self._meas_fast.bind_output(i, a)
         # per tuple of reading kinds: its rows of the stacked measurement, which are angles,
         # and, if any is curved (its second-order covariance is not zero), their block's index
-        self._rows: dict[tuple[str, ...], tuple[np.ndarray, np.ndarray, Any, Any]] = {}
+        self._rows: dict[
+            tuple[str, ...],
+            tuple[np.ndarray, np.ndarray, tuple[np.ndarray, ...] | None, list[tuple[int, int]] | None],
+        ] = {}
         self._rotation = vehicle.model.function("rotation")
         #: Updates dropped because they would have made the estimate non-finite.
         self.rejected_updates = 0
@@ -466,9 +473,9 @@ class NavigationFilter:
                 ang = np.flatnonzero(np.isin(rows, _ANGLE_ROWS))
                 curved = np.ix_(rows, rows) if np.isin(rows, _CURVED_ROWS).any() else None
                 sizes = [measurements.KINDS[k] for k in key]
-                blocks = list(zip(np.cumsum([0, *sizes[:-1]]).tolist(), sizes, strict=True))
+                kind_blocks = list(zip(np.cumsum([0, *sizes[:-1]]).tolist(), sizes, strict=True))
                 gated_kinds = any(k in GATED_KINDS for k in key)
-                cached = self._rows[key] = (rows, ang, curved, blocks if gated_kinds else None)
+                cached = self._rows[key] = (rows, ang, curved, kind_blocks if gated_kinds else None)
             rows, ang, curved, gate_blocks = cached
             values = np.concatenate([self._aged(r, float(t)) for r in readings])
             var = np.concatenate(
@@ -598,7 +605,7 @@ class NavigationFilter:
             S[np.diag_indices_from(S)] += var
             if R_extra is not None:
                 S += R_extra
-            if it == 0 and blocks is not None:
+            if it == 0 and blocks is not None and readings is not None:
                 drop = self._gate(readings, blocks, r, S, var)
                 if drop:
                     return math.inf, 0, drop

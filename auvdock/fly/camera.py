@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import collections
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -19,6 +19,10 @@ from auvdock.config.mission import Mission
 from auvdock.runtime.clock import Clock
 from auvdock.vehicle.state import ETA
 from auvdock.world.dock import HeaveDock, TrackedDock
+
+if TYPE_CHECKING:
+    from auvdock.camera.tracker import DockFix
+    from auvdock.camera.video_in import FrameSource
 
 __all__ = ["CAMERA_STATES", "CAMERA_SERIES", "CameraTracking", "CameraOpenError"]
 
@@ -64,21 +68,20 @@ class CameraTracking:
         clock: Clock,
         on_event: Callable[[str], None],
     ) -> None:
-        from auvdock.camera.model import CameraMount
         from auvdock.camera.tracker import DockTracker, SyntheticCamera, TrackingMonitor
 
         self.dock = dock
         self.clock = clock
         self._on_event = on_event
         self._pose_hist: collections.deque[tuple[float, float, np.ndarray]] = collections.deque(maxlen=400)
-        self._last_fix: Any = None
+        self._last_fix: DockFix | None = None
         self._error_reported = False
         c = mission.camera
         cam = mission.build_camera()
         layout = mission.dock.marker_layout()
-        mount = CameraMount(tuple(c.mount.position_body_m), tuple(c.mount.rpy_deg))
+        mount = c.mount.build()
         if c.source == "synthetic":
-            self.source: Any = SyntheticCamera.from_mission(
+            self.source: FrameSource = SyntheticCamera.from_mission(
                 mission, model_dock, self.latest_pose, clock=clock
             )
         else:

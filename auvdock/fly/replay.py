@@ -195,7 +195,7 @@ class ReplayLink:
         Raises :class:`~auvdock.fly.session.FlyAbortError` at the end of the tlog, or if the
         flight's next marker is not the one the replayed session asks for (the replay has
         diverged from the flight: same tlog, different code or mission)."""
-        taken = []
+        taken: list[tuple[int, Any]] = []
         while self._i < len(self._msgs):
             stamp, msg = self._msgs[self._i]
             self._i += 1

@@ -66,7 +66,7 @@ def preflight_problems(
             "battery: the vehicle reports no voltage (SYS_STATUS; is BATT_MONITOR set?); "
             "set fly.min_battery_v: 0 to fly without a floor"
         )
-    elif floor > 0 and battery_v < floor:
+    elif floor > 0 and battery_v is not None and battery_v < floor:
         problems.append(f"battery {battery_v:.2f} V, below the floor {floor:g} V (fly.min_battery_v)")
     return problems
 

@@ -59,6 +59,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import json
+import math
 import signal
 import threading
 import time
@@ -88,8 +89,8 @@ from auvdock.fly.telemetry import (
     geofence_violation,
 )
 from auvdock.fly.vehicle_state import VehicleState
-from auvdock.loop.autopilot import build_autopilot
 from auvdock.loop import closed_loop
+from auvdock.loop.autopilot import build_autopilot
 from auvdock.loop.closed_loop import LoopResult
 from auvdock.loop.closed_loop import Progress as LoopProgress
 from auvdock.runtime.clock import Clock
@@ -490,6 +491,7 @@ class FlySession:
         """dock.source: camera -- open the frame source and start detecting."""
         if self.mission.dock.source != "camera":
             return
+        assert isinstance(self.dock, TrackedDock)  # dock.source: camera tracks the dock (_build)
         try:
             self.camera = CameraTracking(self.mission, self._model_dock, self.dock, self.clock, self._event)
         except CameraOpenError as e:
@@ -703,7 +705,7 @@ class FlySession:
             raise FlyAbortError("telemetry lost: no pressure reading (the depth limits need it)")
         depth, source = measured
         _, stamp = self.telemetry.latest(source)
-        age = (self._now_us - stamp) * 1e-6
+        age = math.inf if stamp is None else (self._now_us - stamp) * 1e-6
         if age > self.mission.fly.stale_abort_s:
             raise FlyAbortError(f"telemetry lost: no {source} for {age:.1f} s (the depth limits need it)")
         fence = geofence_violation(self.mission.fly.geofence, depth, self.telemetry.distance_from_start())
@@ -712,6 +714,7 @@ class FlySession:
 
     def _camera_step(self, t: float) -> tuple[bool, dict[str, np.ndarray]]:
         """The camera's fixes into the dock filter: (may steer?, series); aborts when lost."""
+        assert self.camera is not None
         state, series = self.camera.step(t)
         if state == "lost":
             raise FlyAbortError(self.events[-1][1] if self.events else "camera: dock lost")

@@ -140,7 +140,8 @@ class Plant(Protocol):
 class DockModel(Protocol):
     """The dock the docking rule judges against (the mission's, or a tracked one)."""
 
-    heading_rad: float
+    @property
+    def heading_rad(self) -> float: ...
 
     def position(self, t: float) -> np.ndarray: ...
 

@@ -30,8 +30,8 @@ import numpy as np
 from auvdock.config.mission import Mission
 from auvdock.controllers.hold import DepthAttitudeHold
 from auvdock.controllers.status import STATUS_NAMES
-from auvdock.loop.autopilot import Autopilot, build_autopilot
 from auvdock.loop import closed_loop
+from auvdock.loop.autopilot import Autopilot, build_autopilot
 from auvdock.loop.closed_loop import LoopRecorder, Progress, run_outcome
 from auvdock.loop.simulated_plant import SimulatedPlant
 from auvdock.results.run import MemoryRecorder, Run

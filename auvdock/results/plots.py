@@ -582,5 +582,7 @@ def _information(results: RunResults) -> Figure:
     ax.grid(True, which="both", alpha=0.3)
     ax.set_title(_title(results, "Flow information F"), fontsize="medium")
     fig.text(0.01, 0.005, _INFORMATION_CAPTION, fontsize="x-small", color="0.25", ha="left", va="bottom")
-    fig.get_layout_engine().set(rect=(0, 0.09, 1, 0.91))
+    engine = fig.get_layout_engine()
+    if engine is not None:  # constrained layout: keep the caption's strip free
+        engine.set(rect=(0, 0.09, 1, 0.91))  # type: ignore[call-arg]  # ConstrainedLayoutEngine.set takes rect
     return fig

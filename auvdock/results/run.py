@@ -157,8 +157,8 @@ def series_info(name: str, row_shape: tuple[int, ...]) -> dict[str, Any]:
         }
     known = _KNOWN.get(name)
     if known is not None and tuple(len(labels) for _, labels in known[0]) == tuple(row_shape):
-        axes, units, frame, description = known
-        return {"axes": list(axes), "units": units, "frame": frame, "description": description}
+        known_axes, units, frame, description = known
+        return {"axes": list(known_axes), "units": units, "frame": frame, "description": description}
     unit = next((u for suffix, u in _SUFFIX_UNITS if name.endswith(suffix)), "")
     axes = [(f"{name}_dim{i}", tuple(str(j) for j in range(n))) for i, n in enumerate(row_shape)]
     return {"axes": axes, "units": unit, "frame": "", "description": ""}
@@ -765,8 +765,10 @@ class MemoryRecorder:
             name: np.stack(rows) if rows else np.zeros((0, *shape), dtype=dtype)
             for (name, (shape, dtype)), rows in zip(self._series.items(), self._rows.values(), strict=True)
         }
+        # Any: one dict of arrays spread over Run's typed fields (mypy checks each value against all)
+        base: dict[str, Any] = {name: arrays.pop(name) for name in BASE_SERIES}
         return Run(
-            **{name: arrays.pop(name) for name in BASE_SERIES},
+            **base,
             extras=arrays,
             outcome=dict(self._outcome),
             mission_name=self._mission_name,

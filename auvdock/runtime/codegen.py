@@ -134,7 +134,8 @@ def find_compiler() -> str | None:
 
 def _key(parts: list[bytes | str]) -> str:
     h = hashlib.sha256()
-    for p in [ca.__version__, " ".join(CFLAGS), *parts]:
+    # casadi's stub omits __version__ (set at import from CasadiMeta)
+    for p in [ca.__version__, " ".join(CFLAGS), *parts]:  # type: ignore[attr-defined]
         b = p.encode() if isinstance(p, str) else bytes(p)
         h.update(len(b).to_bytes(8, "little"))
         h.update(b)

@@ -45,7 +45,8 @@ class BufferedFunction:
             self.bind_input(i, np.zeros(fn.nnz_in(i)))
         self.outputs = [np.zeros(fn.nnz_out(i)) for i in range(fn.n_out())]
         for i, a in enumerate(self.outputs):
-            self._buf.set_res(i, memoryview(a))
+            # casadi's stub lists a byte size its wrapper takes from the buffer (.data: the memoryview)
+            self._buf.set_res(i, a.data)  # type: ignore[call-arg]
 
     def bind_input(self, i: int | str, array: np.ndarray) -> None:
         """Use ``array`` (float64, contiguous, nnz of input ``i`` long) as input ``i`` from now on
@@ -55,7 +56,8 @@ class BufferedFunction:
             raise ValueError(
                 f"input {k} of {self.fn.name()} needs {self.fn.nnz_in(k)} contiguous float64 values"
             )
-        self._buf.set_arg(k, memoryview(array))
+        # casadi's stub lists a byte size its wrapper takes from the buffer (.data: the memoryview)
+        self._buf.set_arg(k, array.data)  # type: ignore[call-arg]
         if k < len(self.inputs):
             self.inputs[k] = array
         else:
@@ -71,7 +73,8 @@ class BufferedFunction:
             raise ValueError(
                 f"output {k} of {self.fn.name()} needs {self.fn.nnz_out(k)} contiguous float64 values"
             )
-        self._buf.set_res(k, memoryview(array))
+        # casadi's stub lists a byte size its wrapper takes from the buffer (.data: the memoryview)
+        self._buf.set_res(k, array.data)  # type: ignore[call-arg]
         self.outputs[k] = array
 
     def evaluate(self) -> None:

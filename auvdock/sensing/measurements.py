@@ -29,13 +29,16 @@ taken as zero in ``accel`` (a current constant in {n}).
 from __future__ import annotations
 
 import weakref
-from typing import Any
+from typing import TYPE_CHECKING
 
 import casadi as ca
 import numpy as np
 
-from auvdock.vehicle.model import Smtrx
+from auvdock.vehicle.model import Smtrx, Sym, VehicleModel
 from auvdock.vehicle.state import ANG, ATT, LIN, NX, POS
+
+if TYPE_CHECKING:
+    from auvdock.vehicle import Vehicle
 
 __all__ = ["KINDS", "GRAVITY", "ANGLE_ROWS", "expression", "h", "measure"]
 
@@ -48,7 +51,7 @@ KINDS: dict[str, int] = {"attitude": 3, "gyro": 3, "accel": 3, "depth": 1, "posi
 #: Per kind, the rows of its value that are angles (residuals wrapped to [-pi, pi)).
 ANGLE_ROWS: dict[str, tuple[int, ...]] = {"attitude": (0, 1, 2)}
 
-_CACHE: weakref.WeakKeyDictionary[Any, dict[str, ca.Function]] = weakref.WeakKeyDictionary()
+_CACHE: weakref.WeakKeyDictionary[Vehicle, dict[str, ca.Function]] = weakref.WeakKeyDictionary()
 
 
 def _check_kind(kind: str) -> None:
@@ -56,7 +59,7 @@ def _check_kind(kind: str) -> None:
         raise KeyError(f"unknown measurement kind {kind!r} (known: {', '.join(KINDS)})")
 
 
-def expression(kind: str, model: Any, x: Any, u: Any, flow_ned: Any) -> Any:
+def expression(kind: str, model: VehicleModel, x: Sym, u: Sym, flow_ned: Sym) -> Sym:
     """Symbolic value of measurement ``kind`` (``KINDS[kind]`` x 1) from CasADi ``x``, ``u``, ``flow_ned``.
 
     ``model`` is the :class:`~auvdock.vehicle.model.VehicleModel`.  Works on SX and MX.
@@ -80,7 +83,7 @@ def expression(kind: str, model: Any, x: Any, u: Any, flow_ned: Any) -> Any:
     return nu_dot[0:3] + ca.mtimes(Smtrx(nu2), nu1) - ca.mtimes(R.T, g_n)
 
 
-def h(kind: str, vehicle: Any) -> ca.Function:
+def h(kind: str, vehicle: Vehicle) -> ca.Function:
     """``h_kind``: (x[12], u[n], flow_ned[3]) -> y[KINDS[kind]], a CasADi SX function, cached per vehicle."""
     _check_kind(kind)
     per_vehicle = _CACHE.setdefault(vehicle, {})
@@ -94,7 +97,11 @@ def h(kind: str, vehicle: Any) -> ca.Function:
 
 
 def measure(
-    kind: str, vehicle: Any, x: np.ndarray, u: np.ndarray | None = None, flow_ned: np.ndarray | None = None
+    kind: str,
+    vehicle: Vehicle,
+    x: np.ndarray,
+    u: np.ndarray | None = None,
+    flow_ned: np.ndarray | None = None,
 ) -> np.ndarray:
     """Noise-free measurement ``kind`` (``(KINDS[kind],)`` ndarray) at state ``x`` (12,).
 

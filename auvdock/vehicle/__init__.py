@@ -16,7 +16,7 @@ T1..Tn (N), n from the vehicle file; ``flow_ned`` = water velocity (north, east,
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import casadi as ca
 import numpy as np
@@ -25,6 +25,9 @@ from auvdock.vehicle.model import VehicleModel, rk4
 from auvdock.vehicle.params import VehicleParams, VehicleParamsError, load_params, preset_names
 from auvdock.vehicle.state import ETA, LIN, NX, POS
 from auvdock.vehicle.thrusters import ThrusterCurve
+
+if TYPE_CHECKING:
+    from auvdock.world.flow import FlowField
 
 __all__ = ["Vehicle", "VehicleModel", "VehicleParams", "VehicleParamsError", "load_vehicle", "preset_names"]
 
@@ -88,7 +91,7 @@ class Vehicle:
         vcd = np.zeros(3) if flow_ned_dot is None else np.asarray(flow_ned_dot, dtype=float)
         return np.asarray(f(np.asarray(x, float), np.asarray(u, float), vc, vcd)).ravel()
 
-    def stepper(self, dt: float, substeps: int = 4, flow: Any = None) -> ca.Function:
+    def stepper(self, dt: float, substeps: int = 4, flow: FlowField | None = None) -> ca.Function:
         """Truth integrator ``(x[12], u[n], t) -> x(t + dt)`` through a flow field.
 
         RK4 with ``substeps`` steps; thrust held constant (zero-order hold).  ``flow`` is a
@@ -105,7 +108,7 @@ class Vehicle:
         self._flow_refs = getattr(self, "_flow_refs", []) + [flow]  # keep id() keys valid
         return fn
 
-    def stepper_any_dt(self, substeps: int = 4, flow: Any = None) -> ca.Function:
+    def stepper_any_dt(self, substeps: int = 4, flow: FlowField | None = None) -> ca.Function:
         """The integrator of :meth:`stepper` with the step as an input: ``(x, u, t, dt) -> x(t + dt)``.
 
         One function for every step length ``dt`` (s), for a caller whose step changes from
@@ -121,7 +124,9 @@ class Vehicle:
         self._flow_refs = getattr(self, "_flow_refs", []) + [flow]  # keep id() keys valid
         return fn
 
-    def _truth_rk4(self, dt: Any, substeps: int, flow: Any) -> tuple[ca.SX, ca.SX, ca.SX, ca.SX]:
+    def _truth_rk4(
+        self, dt: float | ca.SX, substeps: int, flow: FlowField | None
+    ) -> tuple[ca.SX, ca.SX, ca.SX, ca.SX]:
         """Symbols x, u, t and the augmented state [x; t] after ``substeps`` RK4 steps over ``dt``."""
         x = ca.SX.sym("x", NX)
         u = ca.SX.sym("u", self.n_thrusters)

@@ -37,7 +37,7 @@ the path enter) and ``g_n = [0, 0, 9.80665]`` m/s^2 -- level and at rest it read
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING
 
 import casadi as ca
 import numpy as np
@@ -46,6 +46,9 @@ from auvdock.sensing.measurements import GRAVITY
 from auvdock.vehicle import Vehicle
 from auvdock.vehicle.geometry import rotation_zyx
 from auvdock.vehicle.state import ANG, LIN, NX
+
+if TYPE_CHECKING:
+    from auvdock.world.flow import FlowField
 
 __all__ = ["TruthPlant"]
 
@@ -81,7 +84,7 @@ class TruthPlant:
     def __init__(
         self,
         vehicle: Vehicle,
-        flow: Any,
+        flow: FlowField | None,
         x0: np.ndarray | list[float],
         *,
         substeps: int = 4,
