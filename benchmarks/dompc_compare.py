@@ -7,7 +7,7 @@ the true flow at the vehicle held constant over the horizon) and the same optima
 problem built with do-mpc (https://www.do-mpc.com), all flown closed loop on the same paper
 case by auvdock's own simulator (:func:`auvdock.loop.simulation.simulate`): same truth model,
 flow field, dock, start state, control period and timeout.  A do-mpc MPC is wrapped in a
-controller with auvdock's interface (``name``, ``reset()``, ``step(meas, u_prev)``) and put
+controller with auvdock's interface (``name``, ``reset()``, ``step(estimate, u_prev)``) and put
 in place of the controller of an :class:`auvdock.loop.autopilot.Autopilot`.
 
 auvdock's Oracle MPC is flown in its ``paper`` variant (``oracle@paper``): the default
@@ -166,12 +166,13 @@ import numpy as np
 
 from auvdock.campaign.bench import PAPER_MISSIONS, default_missions_dir, machine_line
 from auvdock.config.mission import Mission, load_mission
-from auvdock.controllers import ControlOutput, Measurement, Plan, resolve_solver
+from auvdock.controllers import ControlOutput, Estimate, Plan, resolve_solver
 from auvdock.controllers.mpc import DockingMPC, shift_solution
 from auvdock.controllers.solvers import IPOPT_OPTIONS
 from auvdock.controllers.status import STATUS_FAILED, STATUS_NAMES, STATUS_NOT_CONVERGED, STATUS_OK
 from auvdock.loop.autopilot import Autopilot
 from auvdock.loop.simulation import RunSummary, simulate
+from auvdock.sensing.readings import Readings
 from auvdock.vehicle.model import rk4
 
 #: The IPOPT options of auvdock's ``ipopt`` solver, without ``max_iter`` and ``tol`` (the mission's);
@@ -454,7 +455,7 @@ class DoMPCController:
             self.mpc.bounds["lower", "_x", "nu1"] = lo
             self.mpc.bounds["upper", "_x", "nu1"] = hi
 
-    def step(self, meas: Measurement, u_prev: np.ndarray) -> ControlOutput:
+    def step(self, meas: Estimate, u_prev: np.ndarray) -> ControlOutput:
         t_start = time.perf_counter()
         if meas.flow_ned is None:
             raise ValueError("the Oracle MPC needs the true flow at the vehicle (Assumption 3)")
@@ -526,9 +527,10 @@ class RecordingAutopilot(Autopilot):
         self.first = None
         self.last = None
 
-    def step(self, meas: Measurement) -> ControlOutput:
-        out = super().step(meas)
-        rec = (float(meas.t), np.asarray(meas.state, dtype=float).copy(), out.thrust.copy())
+    def step(self, readings: Readings) -> ControlOutput:
+        out = super().step(readings)
+        assert readings.state is not None  # estimation: truth (Assumption 1), as the comparison runs
+        rec = (float(readings.t), np.asarray(readings.state, dtype=float).copy(), out.thrust.copy())
         if self.first is None:
             self.first = rec
         self.last = rec

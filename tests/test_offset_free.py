@@ -14,9 +14,9 @@ import pytest
 from helpers.plant import plant
 
 from auvdock.config.mission import load_mission
-from auvdock.controllers import Measurement
 from auvdock.loop.autopilot import Autopilot, build_autopilot
 from auvdock.loop.simulation import simulate
+from auvdock.sensing.readings import Readings
 
 ROOT = Path(__file__).resolve().parents[1]
 TANK = ROOT / "missions" / "tank_0p6hz.yaml"
@@ -63,9 +63,10 @@ def test_half_buoyancy_no_added_mass_docks_with_the_robust_variant() -> None:
 class _CurrentError(Autopilot):
     """Oracle told 70 % of the true current: a steady current error in its prediction model."""
 
-    def step(self, meas: Measurement):
-        flow = None if meas.flow_ned is None else 0.7 * np.asarray(meas.flow_ned)
-        return super().step(Measurement(meas.t, meas.state, flow, meas.sensors, meas.readings))
+    def step(self, readings: Readings):
+        flow = None if readings.flow_ned is None else 0.7 * np.asarray(readings.flow_ned)
+        told = Readings(readings.t, readings.suite, readings.state, readings.flow_sensing, flow)
+        return super().step(told)
 
 
 def test_steady_current_error_leaves_no_offset_with_the_robust_variant() -> None:

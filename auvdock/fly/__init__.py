@@ -3,7 +3,8 @@
 One session (:class:`FlySession`, :mod:`auvdock.fly.session`)::
 
     connect (wait for the ArduSub HEARTBEAT) -> request telemetry rates -> wait for pose
-    -> [--arm: MANUAL mode, arm]  -> every dt: telemetry -> Measurement -> Autopilot.step
+    -> [--arm: MANUAL mode, arm]
+    -> every dt, the one closed loop: telemetry -> Readings -> Autopilot.step
     -> thrust -> RC override channels (ArduSub's mixer inverted) -> send
     -> end: neutral overrides, release, disarm if we armed, results closed
 
@@ -11,10 +12,13 @@ Only where measurements come from and where commands go differ from ``auvdock si
 controller-and-estimator step is the same :class:`auvdock.loop.autopilot.Autopilot`, built by
 :func:`auvdock.loop.autopilot.build_autopilot`.
 
-Modules: :mod:`~auvdock.fly.session` (the session, its safety checks and its ending),
+Modules: :mod:`~auvdock.fly.session` (the session's sequence and its ending),
+:mod:`~auvdock.fly.plant` (the vehicle as the closed loop's plant), :mod:`~auvdock.fly.safety`
+(the safety rules on measured values), :mod:`~auvdock.fly.vehicle_state` (what the vehicle said,
+folded from its messages), :mod:`~auvdock.fly.dock_source` (the LANDING_TARGET dock),
 :mod:`~auvdock.fly.telemetry` (the mission frame, sensors from telemetry, the geofence),
 :mod:`~auvdock.fly.camera` (camera dock tracking in a session), :mod:`~auvdock.fly.record`
-(the results file).
+(the results file), :mod:`~auvdock.fly.link` (the MAVLink link), :mod:`~auvdock.fly.replay`.
 
 Frames.  The mission is written in its own NED frame, in which the vehicle starts at
 ``start.state``; at the start the session maps the vehicle's pose onto the mission's start
