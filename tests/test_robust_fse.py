@@ -1,9 +1,10 @@
 """The robust default FSE-MPCs (controller.variant: robust) dock where the paper's do not.
 
 Paper case 3 (``south``: Sequential held 0.23 m off with the paper's formulation) and case 4
-(``east_strong``, 2 m/s: Optimized 0.24 m off), from the zero-flow prior, seed 0, the paper's
-Assumption 1 sensing.  Offset-free tracking estimates what the flow estimate leaves (a
-disturbance wrench and a velocity offset) and Sequential's MPC knows its perception input.
+(``east_strong``, 2 m/s: Optimized 0.24 m off), from the zero-flow prior, with the paper's
+Assumption 1 sensing, counted over 10 seeds of its noise.  Offset-free tracking estimates what
+the flow estimate leaves (a disturbance wrench and a velocity offset) and Sequential's MPC knows
+its perception input.
 """
 
 from __future__ import annotations
@@ -19,18 +20,28 @@ from auvdock.loop.simulation import simulate
 ROOT = Path(__file__).resolve().parents[1]
 
 
-@pytest.mark.parametrize("case", ["south", "east_strong"])
-@pytest.mark.parametrize("controller", ["sequential", "optimized"])
-def test_robust_fse_docks_in_cases_3_and_4(controller, case) -> None:
+#: Seeds of the sensing noise each claim is counted over, and how many of them must dock.
+SEEDS = range(10)
+AT_LEAST = 9
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("controller", "case"),
+    [("sequential", "south"), ("optimized", "east_strong")],  # where the paper's variant times out
+)
+def test_robust_fse_docks_where_the_paper_variant_does_not(controller, case) -> None:
+    """Over 10 seeds of the simulated sensing (Assumption 1's noise; the only random input of
+    these runs), the robust variant docks in at least 9, within the tolerance, with no failed
+    solve in the runs that dock."""
     m = load_mission(ROOT / "missions" / f"{case}.yaml").with_updates(**{"controller.type": controller})
     assert m.controller.variant == "robust" and m.estimator.prior_flow_ned_m_s == [0.0, 0.0, 0.0]
-    s = simulate(m)
-    o = s.outcome
-    print(f"{controller} {case}: docked {o['docked']} at {o.get('time_to_dock_s')} s, flow error at the end "
-          f"{o['flow_final_error_m_s']:.3f} m/s, RMSE {o['flow_rmse_m_s']:.3f}")  # fmt: skip
-    assert s.docked, o
-    assert o["closest_approach_m"] <= 0.05
-    assert o["solver_failures"] == 0
+    outcomes = [simulate(m.with_updates(seed=seed)).outcome for seed in SEEDS]
+    docked = [o for o in outcomes if o["docked"]]
+    times = ", ".join(f"{o['time_to_dock_s']:.2f}" if o["docked"] else "timeout" for o in outcomes)
+    print(f"{controller} {case}: docked {len(docked)}/{len(outcomes)} seeds ({times} s)")
+    assert len(docked) >= AT_LEAST, times
+    assert all(o["closest_approach_m"] <= 0.05 and o["solver_failures"] == 0 for o in docked)
 
 
 @pytest.mark.parametrize("controller", ["sequential", "optimized"])

@@ -43,6 +43,10 @@ class ControlOutput:
         Autopilot): the rest of ``solve_time_s`` is Python.
     info : dict
         Anything else a controller wants to report about the step (not recorded).
+    channels_us : ndarray (6,) or None
+        For a control stage that commands RC channels directly (a pilot over the link of a
+        stand-in vehicle), the six channels, us; the loop's actuator path then takes them
+        instead of ``thrust``.
     """
 
     thrust: np.ndarray
@@ -52,6 +56,7 @@ class ControlOutput:
     series: dict[str, np.ndarray] = field(default_factory=dict)
     info: dict[str, Any] = field(default_factory=dict)
     time_parts: dict[str, float] = field(default_factory=dict)
+    channels_us: np.ndarray | None = None
 
 
 class Controller(Protocol):

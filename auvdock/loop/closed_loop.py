@@ -27,6 +27,7 @@ every other exception, Ctrl-C included, propagates with every finished row recor
 from __future__ import annotations
 
 import contextlib
+import itertools
 import math
 import time
 from collections.abc import Callable, Iterator
@@ -45,13 +46,13 @@ from auvdock.vehicle.state import ATT, LIN, POS, YAW
 if TYPE_CHECKING:
     from auvdock.controllers.base import ControlOutput
     from auvdock.controllers.hold import DepthAttitudeHold
-    from auvdock.loop.autopilot import Autopilot
     from auvdock.vehicle import Vehicle
 
 __all__ = [
     "Observation",
     "Applied",
     "Plant",
+    "ControlStage",
     "DockModel",
     "RowSink",
     "LoopEnding",
@@ -135,6 +136,24 @@ class Plant(Protocol):
     def after_step(self, out: ControlOutput) -> None:
         """A controller step was taken (a safety monitor may raise :class:`LoopEnding`)."""
         ...
+
+
+class ControlStage(Protocol):
+    """What turns readings into a command: the autopilot (:class:`~auvdock.loop.autopilot.Autopilot`:
+    estimation stage + controller), or a stand-in vehicle's pilot on the link."""
+
+    #: Control period, s.
+    dt: float
+    vehicle: Vehicle
+
+    @property
+    def extra_series(self) -> dict[str, tuple[int, ...]]:
+        """Per-step series it records: name -> per-row shape."""
+        ...
+
+    def step(self, readings: Readings) -> ControlOutput: ...
+
+    def set_applied(self, thrust: np.ndarray) -> None: ...
 
 
 class DockModel(Protocol):
@@ -268,6 +287,9 @@ class LoopRecorder:
         The plant's own columns (name -> per-row shape).
     channels : bool
         Record ``channels_us`` (6,): the RC override channels of the ArduSub actuator path.
+    keep : bool
+        Keep the per-step figures the outcome is computed from (False for a stand-in vehicle
+        that runs until stopped: its memory stays flat).
     """
 
     def __init__(
@@ -279,8 +301,10 @@ class LoopRecorder:
         extra_series: dict[str, tuple[int, ...]],
         plant_columns: dict[str, tuple[int, ...]],
         channels: bool,
+        keep: bool = True,
     ) -> None:
         self.sinks = list(sinks)
+        self.keep = bool(keep)
         self.vehicle = vehicle
         self.dock = dock
         self.extra_series = dict(extra_series)
@@ -317,6 +341,8 @@ class LoopRecorder:
         series: dict[str, np.ndarray],
     ) -> None:
         """One row: the observation, the thrust recorded, the step's figures and series."""
+        if not self.sinks:
+            return
         t, x = obs.t, obs.state
         u = np.asarray(thrust_N, dtype=float)
         row: dict[str, Any] = dict(
@@ -340,6 +366,8 @@ class LoopRecorder:
 
     def stepped(self, obs: Observation, distance_m: float, out: ControlOutput) -> None:
         """Count a controller step into the outcome figures."""
+        if not self.keep:
+            return
         self.states.append(obs.state.copy())
         self.distances.append(distance_m)
         self.solve_times.append(out.solve_time_s)
@@ -388,11 +416,11 @@ def _whole() -> Iterator[None]:
 def run_closed_loop(
     *,
     plant: Plant,
-    autopilot: Autopilot,
+    autopilot: ControlStage,
     actuators: ActuatorPath,
     recorder: LoopRecorder,
     dock: DockModel,
-    tolerance_m: float,
+    tolerance_m: float | None,
     timeout_s: float,
     hold: DepthAttitudeHold | None = None,
     progress: Callable[[Progress], None] | None = None,
@@ -406,16 +434,20 @@ def run_closed_loop(
     ----------
     plant : Plant
         The truth model or a vehicle.
-    autopilot : Autopilot
-        The estimation stage and the controller, reset by the caller.
+    autopilot : ControlStage
+        The estimation stage and the controller (reset by the caller), or a stand-in vehicle's
+        pilot on the link.
     actuators : ActuatorPath
         The controller's thrust -> what the thrusters push.
     recorder : LoopRecorder
         Rows and outcome figures.
     dock : DockModel
         The dock the docking rule judges against.
-    tolerance_m, timeout_s : float
-        Docked within ``tolerance_m`` (m) of the dock; the run ends at ``timeout_s`` (s).
+    tolerance_m : float or None
+        Docked within ``tolerance_m`` (m) of the dock; None: no verdict (a stand-in vehicle:
+        the flight it serves decides).
+    timeout_s : float
+        The run ends at ``timeout_s`` (s); ``math.inf``: when the plant ends it.
     hold : DepthAttitudeHold, optional
         The controller for instants with no dock to steer to (``Observation.steer`` False);
         required by plants that can report that.
@@ -434,7 +466,7 @@ def run_closed_loop(
         docked, timeout or diverged; a plant's :class:`LoopEnding` becomes the result too.
     """
     dt = autopilot.dt
-    n_max = int(math.ceil(timeout_s / dt - 1e-9))
+    n_max = int(math.ceil(timeout_s / dt - 1e-9)) if math.isfinite(timeout_s) else -1
     wall0 = time.perf_counter()
     result: LoopResult | None = None
     zero = np.zeros(autopilot.vehicle.n_thrusters)
@@ -455,7 +487,7 @@ def run_closed_loop(
     try:
         plant.start()
         t_end = 0.0
-        for k in range(n_max + 1):
+        for k in range(n_max + 1) if n_max >= 0 else itertools.count():
             t = k * dt
             with step_guard():
                 obs = plant.observe(t)
@@ -465,7 +497,7 @@ def run_closed_loop(
                     result = LoopResult("diverged", f"the state went non-finite at t = {t:.2f} s", t)
                     break
                 dist = float(np.linalg.norm(x[POS] - dock.position(t)))
-                if obs.steer and dist <= tolerance_m:  # (no verdict on a dock out of sight)
+                if tolerance_m is not None and obs.steer and dist <= tolerance_m:  # (not out of sight)
                     recorder.distances.append(dist)
                     final(obs, dist)
                     result = LoopResult("docked", f"docked at t = {t:.2f} s", t, True, x.copy())
@@ -505,7 +537,12 @@ def run_closed_loop(
                         hold.stop()
                     with control_guard():
                         out = autopilot.step(obs.readings)
-                    applied = plant.apply(t, actuators.command(out.thrust))
+                    cmd = (
+                        actuators.command(out.thrust)
+                        if out.channels_us is None
+                        else actuators.from_channels(out.channels_us)
+                    )
+                    applied = plant.apply(t, cmd)
                     autopilot.set_applied(applied.thrust_N)
                     series = dict(out.series)
                     if true_flow_series:

@@ -94,8 +94,14 @@ from pathlib import Path
 import numpy as np
 
 from auvdock.config.mission import Mission, load_mission
+from auvdock.controllers.base import ControlOutput
+from auvdock.controllers.status import STATUS_OK
+from auvdock.loop import closed_loop
+from auvdock.loop.closed_loop import Applied, LoopEnding, LoopRecorder, Observation
 from auvdock.runtime.clock import Clock, wall_clock
 from auvdock.runtime.interrupts import SigintDeferred
+from auvdock.sensing.readings import Readings
+from auvdock.vehicle.actuators import ActuatorCommand, IdealActuators
 from auvdock.vehicle.geometry import wrap_angle
 from auvdock.vehicle.state import POS
 from auvdock.vehicle.thrusters import PWM_MAX_US, PWM_MIN_US, PWM_NEUTRAL_US, T200, ThrusterCurve
@@ -513,16 +519,10 @@ class SitlPhysics:
             )
 
     # --- the protocol ------------------------------------------------------------------------
-    def handle(self, data: bytes, sender: tuple[str, int] | None = None) -> bytes | None:
-        """Answer one datagram (see Protocol): the reply to send back, or None (ignored)."""
-        frame = parse_servo_frame(data)
-        with self._lock:
-            if frame is None:
-                self._ignored += 1
-                return None
-            return self._handle_frame(frame, sender)
-
-    def _handle_frame(self, frame: ServoFrame, sender: tuple[str, int] | None) -> bytes:
+    def _accept(self, frame: ServoFrame, sender: tuple[str, int] | None) -> bytes | None:
+        """The protocol's bookkeeping of one servo frame (see Protocol): the reply again for a
+        repeated frame (answered without a step), or None for a new frame to step; a frame count
+        that went back (SITL restarted) starts the vehicle over first."""
         count = frame.frame_count
         if sender is not None and sender != self._peer:
             kind = "connected" if self._peer is None else "peer"
@@ -537,7 +537,11 @@ class SitlPhysics:
             elif count > self._last_count + 1:
                 self._skipped += count - self._last_count - 1
         self._last_count = count
-        self._step(frame)
+        return None
+
+    def _step_and_reply(self, frame: ServoFrame, thrust: np.ndarray) -> bytes:
+        """Step the frame with the motors' ``thrust`` (8,, N) and make the reply (see Protocol)."""
+        self._step(frame, thrust)
         f_b, w = self.plant.imu()
         reply = fdm_reply(self._t, self.plant.x, f_b, w)
         self._last_reply = reply
@@ -548,14 +552,13 @@ class SitlPhysics:
             self._stop_event.set()
         return reply
 
-    def _step(self, frame: ServoFrame) -> None:
+    def _step(self, frame: ServoFrame, thrust: np.ndarray) -> None:
         rate = frame.frame_rate
         if rate != self._rate:
             self._t_base, self._k, self._rate = self._t, 0, rate
         t_prev = self._t
         self._k += 1
         self._t = self._t_base + self._k / rate
-        thrust = motor_thrust(frame.pwm, self.vehicle.thruster_curve)
         self._motors_active = bool(np.any(thrust != 0.0))
         if self._hold != "free" and self._motors_active:
             self._hold = "free"
@@ -682,30 +685,126 @@ class SitlPhysics:
         self.stop()
 
     def _run(self) -> None:
+        """The server's life on the one closed loop (:func:`auvdock.loop.closed_loop.run_closed_loop`),
+        one step per new servo frame (SITL's lockstep): the plant (:class:`_SitlPlant`: the next
+        frame to step, repeats answered and restarts handled on the way, the truth stepped and the
+        reply sent), SITL's motor outputs as the control stage (:class:`_MotorOutputs`), until
+        :meth:`stop` or ``duration_s``."""
         try:
-            while not self._stop_event.is_set():
-                sock = self._sock
-                if sock is None:
-                    return
-                if self.clock.wait_readable(sock, 0.2):
-                    self._receive_all(sock)
+            recorder = LoopRecorder(  # no sinks yet, nothing kept: memory stays flat however long it runs
+                [],
+                vehicle=self.vehicle,
+                dock=self.dock,
+                extra_series={},
+                plant_columns={},
+                channels=False,
+                keep=False,
+            )
+            pilot = _MotorOutputs(self)
+            closed_loop.run_closed_loop(
+                plant=_SitlPlant(self, pilot),
+                autopilot=pilot,
+                actuators=IdealActuators(self.vehicle),  # the motors' thrust, from SITL's own mixer
+                recorder=recorder,
+                dock=self.dock,
+                tolerance_m=None,  # the flight decides docking
+                timeout_s=math.inf,  # until stopped (or duration_s)
+            )
         except BaseException as e:  # kept for the caller; the thread must not die silently
             self._error = e
             self._stop_event.set()
 
-    def _receive_all(self, sock: socket.socket, limit: int = 1000) -> None:
-        for _ in range(limit):
-            if self._stop_event.is_set():
-                return
+
+class _MotorOutputs:
+    """sitl-physics' control stage: ArduSub SITL on the other end, whose motor outputs (the servo
+    frame being stepped, after SITL's own VECTORED_6DOF mixer) become thrust through the
+    vehicle's thruster curve (:func:`motor_thrust`)."""
+
+    def __init__(self, sim: SitlPhysics) -> None:
+        self.sim = sim
+        self.vehicle = sim.vehicle
+        self.dt = 1.0 / 1000.0  # nominal: the plant steps each frame by its own 1 / frame_rate
+        self.frame: ServoFrame | None = None
+
+    @property
+    def extra_series(self) -> dict[str, tuple[int, ...]]:
+        """Nothing recorded beyond the loop's own columns."""
+        return {}
+
+    def step(self, readings: Readings) -> ControlOutput:
+        assert self.frame is not None
+        return ControlOutput(motor_thrust(self.frame.pwm, self.vehicle.thruster_curve), STATUS_OK)
+
+    def set_applied(self, thrust: np.ndarray) -> None:
+        """Nothing to predict with."""
+
+
+class _SitlPlant:
+    """sitl-physics as the closed loop's plant: each instant is the next new servo frame (SITL's
+    lockstep: physics time follows the frames, ``t_base + k / frame_rate``, not the loop's
+    nominal clock); datagrams that are not frames are counted, repeated frames answered again,
+    a restart starts the vehicle over; the truth is stepped over the frame and the reply sent."""
+
+    columns: dict[str, tuple[int, ...]] = {}
+
+    def __init__(self, sim: SitlPhysics, pilot: _MotorOutputs) -> None:
+        self.sim = sim
+        self.pilot = pilot
+        self._sender: tuple[str, int] | None = None
+        self._thrust = np.zeros(N_MOTORS)
+
+    def start(self) -> None:
+        """Nothing to do: physics time is the frames'."""
+
+    def observe(self, t: float) -> Observation:
+        sim = self.sim
+        while True:
+            sock = sim._sock
+            if sim._stop_event.is_set() or sock is None:
+                raise LoopEnding("stopped", "sitl-physics stopped")
+            if not sim.clock.wait_readable(sock, 0.2):
+                continue
             try:
                 data, sender = sock.recvfrom(65536)
             except (BlockingIOError, InterruptedError):
-                return
+                continue
             except OSError:  # e.g. an ICMP "port unreachable" for an earlier reply: that peer is gone
                 continue
-            reply = self.handle(data, (str(sender[0]), int(sender[1])))
-            if reply is not None:
-                try:
-                    sock.sendto(reply, sender)
-                except OSError:
-                    pass
+            peer = (str(sender[0]), int(sender[1]))
+            frame = parse_servo_frame(data)
+            with sim._lock:
+                if frame is None:
+                    sim._ignored += 1
+                    continue
+                again = sim._accept(frame, peer)
+                if again is None:  # a new frame: this instant's command
+                    self.pilot.frame, self._sender = frame, peer
+                    x = sim.plant.state
+                    return Observation(
+                        sim._t, x, np.asarray(sim.flow.velocity(x[POS], sim._t)), Readings(sim._t)
+                    )
+            self._send(again, peer)
+
+    def apply(self, t: float, command: ActuatorCommand) -> Applied:
+        self._thrust = np.asarray(command.applied_N, dtype=float).copy()
+        return Applied(None, self._thrust.copy())
+
+    def advance(self, t: float, t_next: float) -> bool:
+        sim, frame = self.sim, self.pilot.frame
+        assert frame is not None and self._sender is not None
+        with sim._lock:
+            reply = sim._step_and_reply(frame, self._thrust)
+        self._send(reply, self._sender)
+        return True
+
+    def after_step(self, out: ControlOutput) -> None:
+        """Nothing to monitor."""
+
+    def _send(self, reply: bytes, peer: tuple[str, int]) -> None:
+        sock = self.sim._sock
+        if sock is None:
+            return
+        try:
+            sock.sendto(reply, peer)
+        except OSError:
+            pass

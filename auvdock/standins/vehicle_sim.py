@@ -91,6 +91,7 @@ on the instance to withhold that stream.
 
 from __future__ import annotations
 
+import math
 import select
 import threading
 from collections import deque
@@ -102,10 +103,15 @@ from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 from auvdock.config.mission import Mission, load_mission
+from auvdock.controllers.base import ControlOutput
+from auvdock.controllers.status import STATUS_OK
 from auvdock.fly.units import pressure_hpa
+from auvdock.loop import closed_loop
+from auvdock.loop.closed_loop import Applied, LoopEnding, LoopRecorder, Observation
 from auvdock.runtime.clock import Clock, wall_clock
 from auvdock.runtime.interrupts import SigintDeferred
 from auvdock.sensing.errors import sensor_errors
+from auvdock.sensing.readings import Readings
 from auvdock.standins import telemetry_out
 from auvdock.standins.ardusub_params import (
     COMPONENT_ID,
@@ -126,7 +132,9 @@ from auvdock.standins.telemetry_out import (
     SensorNoise,
     StreamSchedule,
 )
+from auvdock.vehicle.actuators import ActuatorCommand, ArduSubActuators
 from auvdock.vehicle.ardusub import thrust_from_channels
+from auvdock.vehicle.state import POS
 from auvdock.world.plant import TruthPlant
 
 __all__ = [
@@ -232,6 +240,7 @@ class VehicleSim:
         with SigintDeferred():
             self.vehicle = mission.build_vehicle()
             self.flow = mission.build_flow()
+            self._dock = mission.build_dock()  # the true dock (recorded; no verdict here)
             self._plant = TruthPlant(
                 self.vehicle,
                 self.flow,
@@ -495,19 +504,29 @@ class VehicleSim:
 
     # --- main loop ---------------------------------------------------------------------------
     def _run(self) -> None:
-        clock = self.clock
+        """The vehicle's life on the one closed loop (:func:`auvdock.loop.closed_loop.run_closed_loop`):
+        its plant (:class:`_StandinPlant`: messages in, the truth stepped, telemetry out, paced on
+        the clock), its pilot on the link as the control stage (:class:`_RemotePilot`) and
+        ArduSub's channel path as the actuators, every ``dt`` until :meth:`stop`."""
         try:
-            next_t = clock.now()
-            period = self.dt / self.speed
-            while not self._stop_event.is_set():
-                self._receive_all()
-                with self._lock:
-                    self._physics_step()
-                    self._send_telemetry()
-                next_t += period
-                self._wait_until(next_t)
-                if clock.now() - next_t > MAX_LAG_S:
-                    next_t = clock.now()
+            recorder = LoopRecorder(
+                [],
+                vehicle=self.vehicle,
+                dock=self._dock,
+                extra_series={},
+                plant_columns={},
+                channels=True,
+                keep=False,
+            )
+            closed_loop.run_closed_loop(
+                plant=_StandinPlant(self),
+                autopilot=_RemotePilot(self),
+                actuators=ArduSubActuators(self.vehicle),
+                recorder=recorder,
+                dock=self._dock,
+                tolerance_m=None,  # the flight it serves decides docking
+                timeout_s=math.inf,  # until stopped
+            )
         except BaseException as e:  # keep it for run_forever; the thread must not die silently
             self._error = e
             self._stop_event.set()
@@ -532,10 +551,10 @@ class VehicleSim:
                 self._receive_all()
 
     def _physics_step(self) -> None:
+        """Step the truth over one ``dt`` with the thrust the motors hold (held at the start, at
+        rest, while disarmed with ``hold_start``)."""
         t = self._k * self.dt
-        self._commands.check_failsafe(t)
-        self._update_thrust()
-        if self.hold_start and not self._commands.armed:  # held at the start, at rest, while disarmed
+        if self.hold_start and not self._commands.armed:
             self._plant.place(self.mission.start_state())
         else:
             self._plant.step(self._thrust, t)
@@ -676,3 +695,72 @@ class VehicleSim:
     def _send_servo_output_raw(self) -> None:
         t = self._k * self.dt
         self._out.send(telemetry_out.servo_output_raw(t, self._commands.armed, self._commands.channels(t)))
+
+
+class _RemotePilot:
+    """A stand-in vehicle's control stage: whoever flies it over the link.  Its command is the six
+    RC channels the vehicle holds now (a GCS's override while it lasts, else neutral); the loop's
+    actuator path (ArduSub's mixer and the thruster curve) makes the thrust."""
+
+    extra_series: dict[str, tuple[int, ...]] = {}
+
+    def __init__(self, sim: VehicleSim) -> None:
+        self.sim = sim
+        self.dt = sim.dt
+        self.vehicle = sim.vehicle
+
+    def step(self, readings: Readings) -> ControlOutput:
+        with self.sim._lock:
+            channels = np.asarray(self.sim._commands.channels(readings.t), dtype=float)
+        return ControlOutput(np.zeros(self.vehicle.n_thrusters), STATUS_OK, channels_us=channels)
+
+    def set_applied(self, thrust: np.ndarray) -> None:
+        """Nothing to predict with."""
+
+
+class _StandinPlant:
+    """A stand-in vehicle as the closed loop's plant: the messages that arrived, ArduSub's
+    pilot-input failsafe, the truth stepped over ``dt`` with the motors' thrust (none while
+    disarmed), the telemetry due, and the pace on the vehicle's clock (``speed`` x real time)."""
+
+    columns: dict[str, tuple[int, ...]] = {}
+
+    def __init__(self, sim: VehicleSim) -> None:
+        self.sim = sim
+        self._next_t = 0.0
+        self._period = sim.dt / sim.speed
+
+    def start(self) -> None:
+        self._next_t = self.sim.clock.now()
+
+    def observe(self, t: float) -> Observation:
+        sim = self.sim
+        if sim._stop_event.is_set():
+            raise LoopEnding("stopped", "vehicle-sim stopped")
+        sim._receive_all()
+        with sim._lock:
+            sim._commands.check_failsafe(t)
+            x = sim._plant.state
+        return Observation(t, x, np.asarray(sim.flow.velocity(x[POS], t), dtype=float), Readings(t))
+
+    def apply(self, t: float, command: ActuatorCommand) -> Applied:
+        sim = self.sim
+        with sim._lock:
+            sim._thrust = (
+                command.applied_N.copy() if sim._commands.armed else np.zeros(sim.vehicle.n_thrusters)
+            )
+            return Applied(command.channels_us, sim._thrust.copy())
+
+    def advance(self, t: float, t_next: float) -> bool:
+        sim = self.sim
+        with sim._lock:
+            sim._physics_step()
+            sim._send_telemetry()
+        self._next_t += self._period
+        sim._wait_until(self._next_t)
+        if sim.clock.now() - self._next_t > MAX_LAG_S:
+            self._next_t = sim.clock.now()
+        return True
+
+    def after_step(self, out: ControlOutput) -> None:
+        """Nothing to monitor: the vehicle's own failsafe acts in :meth:`observe`."""

@@ -83,6 +83,10 @@ class ActuatorPath(Protocol):
         """The command for a wanted body wrench (6,) (a hold controller's)."""
         ...
 
+    def from_channels(self, channels_us: np.ndarray) -> ActuatorCommand:
+        """The command of six RC channels (us) a pilot sends."""
+        ...
+
     def neutral(self) -> ActuatorCommand:
         """No thrust (neutral channels)."""
         ...
@@ -110,6 +114,9 @@ class IdealActuators:
     def neutral(self) -> ActuatorCommand:
         u = np.zeros(self.vehicle.n_thrusters)
         return ActuatorCommand(u, None, u)
+
+    def from_channels(self, channels_us: np.ndarray) -> ActuatorCommand:
+        raise ValueError("ideal actuators take thrust, not RC channels (use the ardusub path)")
 
 
 class ArduSubActuators:
@@ -149,6 +156,11 @@ class ArduSubActuators:
 
     def neutral(self) -> ActuatorCommand:
         return self._from_channels(np.zeros(self.vehicle.n_thrusters), NEUTRAL_CHANNELS.copy())
+
+    def from_channels(self, channels_us: np.ndarray) -> ActuatorCommand:
+        ch = np.asarray(channels_us, dtype=float)
+        applied = thrust_from_channels(ch, self.curve)
+        return ActuatorCommand(applied, ch, applied)
 
 
 def build_actuators(name: str, vehicle: Vehicle) -> ActuatorPath:
