@@ -151,4 +151,9 @@ def test_plain_install_runs_shipped_missions_from_any_folder(tmp_path: Path) -> 
     )
     assert sim.returncode == 0, sim.stdout + sim.stderr
     assert (elsewhere / "out" / "gyre_oracle.h5").is_file()
+    # the library, as the README shows it: a run held in memory, its xarray view
+    code = "import auvdock; r = auvdock.simulate('gyre'); print(r.outcome['docked'], r.to_xarray())"
+    lib = subprocess.run([str(py), "-c", code], cwd=elsewhere, env=env, capture_output=True, text=True)
+    assert lib.returncode == 0, lib.stderr
+    assert lib.stdout.startswith("True <xarray.Dataset>") and "time_s" in lib.stdout, lib.stdout
     assert sys.executable  # the test's own interpreter is untouched
