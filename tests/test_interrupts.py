@@ -63,10 +63,31 @@ def test_sim_sigint_at_every_moment(moment: str, tmp_path: Path) -> None:
         assert r.state.shape == (r.n_steps, 12) and np.all(np.isfinite(r.state)), what
     if moment.startswith(("import:", "call:auvdock.loop.autopilot:")):  # before the run: no file
         assert lines == ["interrupted"] and not h5.exists(), what
+    elif moment == "call:auvdock.loop.simulation:simulate":
+        assert lines == ["interrupted before the first step: no results file was written"], what
+        assert not h5.exists(), what
     elif moment.startswith("sim-step:"):  # every finished step, then incomplete
         k = int(moment.split(":")[1])
         r = read_run(h5)
         assert not r.complete and r.n_steps == k + 1, what
         assert lines == [f"interrupted: the steps so far are in {h5} (complete = False)"], what
+    elif moment == "call:auvdock.results.store:RunWriter.finish":  # held back until the outcome is in
+        assert lines == [f"interrupted after the run ended: its results are complete in {h5}"], what
+        assert read_run(h5).complete, what
     elif moment == "call:auvdock.cli.sim:_summary_table":  # the run had ended whole
         assert lines == ["interrupted"] and read_run(h5).complete, what
+
+
+def test_sim_sigint_before_the_run_does_not_take_an_earlier_file_for_its_own(tmp_path: Path) -> None:
+    out = tmp_path / "runs"
+    env = {**os.environ, "AUVDOCK_COMPILE": "never"}
+    args = ["sim", "diagonal", "-c", "naive", "--timeout", "1", "--no-plots", "--out", str(out)]
+    first = subprocess.run([sys.executable, "-m", "auvdock.cli", *args], env=env, capture_output=True)
+    assert first.returncode == 1, first.stderr  # ran whole, did not dock in 1 s
+    res = _sim_interrupted("call:auvdock.loop.simulation:simulate", out)  # before this run's first step
+    what = f"stdout:\n{res.stdout}\nstderr:\n{res.stderr}"
+    assert res.returncode == 130, what
+    lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("interrupted"), what
+    assert "results are complete" not in lines[0], what  # this run wrote nothing
+    assert read_run(out / "diagonal_naive.h5").complete  # the earlier run's file, left as it was

@@ -180,10 +180,11 @@ def sim(
                     info=f"distance {p.distance_m:6.3f} m  solve {p.solve_time_s * 1e3:5.1f} ms",
                 )
 
+        earlier = _file_stamp(h5)  # an earlier run's file there is not this run's
         try:
             summary = simulate(m, out=h5, progress=on_step, timeout_s=timeout, autopilot=ap)
         except KeyboardInterrupt:
-            if not h5.is_file():
+            if not h5.is_file() or _file_stamp(h5) == earlier:
                 exit_interrupted("interrupted before the first step: no results file was written")
             if read_run(h5).complete:  # the Ctrl-C came as the outcome was written, held back to its end
                 exit_interrupted(f"interrupted after the run ended: its results are complete in {h5}")
@@ -197,6 +198,15 @@ def sim(
         console.print("plots: " + ", ".join(str(p) for p in paths))
     if not summary.docked:
         raise typer.Exit(code=1)
+
+
+def _file_stamp(path: Path) -> tuple[int, int] | None:
+    """(inode, modification time in ns) of a file, None if there is none."""
+    try:
+        st = path.stat()
+    except OSError:
+        return None
+    return (st.st_ino, st.st_mtime_ns)
 
 
 @app.command()
