@@ -134,6 +134,7 @@ def test_resume_runs_nothing(campaign) -> None:
         assert f.attrs["executor"] == "none (nothing to run)"
 
 
+@pytest.mark.slow
 def test_force_starts_again(campaign, tmp_path) -> None:
     out, _ = campaign
     shutil.copy(out / "campaign.h5", tmp_path / "campaign.h5")
@@ -191,6 +192,7 @@ def test_failure_in_one_run_does_not_stop_the_others(tmp_path) -> None:
     assert row[3] == "failed: RuntimeError: injected failure"
 
 
+@pytest.mark.slow
 def test_kill_9_of_a_worker_costs_only_its_run(tmp_path) -> None:
     """8 runs on 2 workers: the worker holding diagonal/naive is SIGKILLed once (the run is
     retried and completes), the one holding south/oracle every time (recorded as failed after
@@ -302,6 +304,7 @@ def _alive(pid: int) -> bool:
         return False
 
 
+@pytest.mark.slow
 def test_ctrl_c_subprocess_exits_130_and_resume_finishes(tmp_path) -> None:
     args = ["compare", *FOUR, "-c", "oracle,naive", "--timeout", "40", "--jobs", "2", "--out", str(tmp_path)]
     p = _driver([*args, "--no-plots"], tmp_path)
@@ -325,6 +328,7 @@ def test_ctrl_c_subprocess_exits_130_and_resume_finishes(tmp_path) -> None:
     assert len(records) == 8 and all(r["status"] == "done" for r in records)
 
 
+@pytest.mark.slow
 def test_kill_9_of_a_worker_from_outside(tmp_path) -> None:
     """A real worker of ``auvdock compare`` SIGKILLed from outside: 8 rows, at most one failed."""
     args = ["compare", *FOUR, "-c", "oracle,naive", "--timeout", "4", "--jobs", "2", "--out", str(tmp_path)]

@@ -12,7 +12,8 @@ from auvdock.config.mission import load_mission
 from auvdock.loop.simulation import simulate
 from auvdock.results.store import read_run
 from auvdock.sensing.measurements import measure
-from auvdock.sensing.sensors import POSITION_SOURCES, SensorSettings, SensorSuite
+from auvdock.sensing.settings import POSITION_SOURCES, SensorSettings
+from auvdock.sensing.simulated import SensorSuite
 from auvdock.vehicle import load_vehicle
 
 ROOT = Path(__file__).resolve().parents[1]

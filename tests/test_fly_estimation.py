@@ -139,6 +139,7 @@ def _fly_in_current(loop: Loopback, tmp_path: Path, controller: str, timeout_s: 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
 @pytest.mark.parametrize("controller", ["sequential", "optimized"])
+@pytest.mark.slow
 def test_flow_estimating_controllers_learn_an_unknown_current_and_dock(
     loop, tmp_path, controller, seed
 ) -> None:
@@ -157,6 +158,7 @@ def test_flow_estimating_controllers_learn_an_unknown_current_and_dock(
     assert np.all(np.isnan(r.extras["flow_body_true_m_s"]))  # unknown on a vehicle, not the mission's
 
 
+@pytest.mark.slow
 def test_a_flight_replays_to_the_same_controller_outputs(loop, tmp_path) -> None:
     """The tlog of a noisy flight on the navigation filter replays, with the same code, to the
     same thrust at every step (to 1e-9 N), the same estimates and the same ending."""

@@ -1,105 +1,83 @@
-"""Ctrl-C (SIGINT) at random moments of ``auvdock fly`` (a real process on the wall clock).
+"""Ctrl-C (SIGINT) at every moment of ``auvdock fly`` (a real process on the wall clock).
 
-``python -m auvdock.cli fly --arm`` flies against an in-process ``VehicleSim`` on 127.0.0.1
-(wall clock); once the command has started (its first line), SIGINT comes after a random
-delay drawn here, anywhere from loading the controller, connecting and arming to flying
-(--timeout 4; a SIGINT during the ending is in tests/test_fly.py, deterministically).  Each
-interrupted run must exit with status 130, print no traceback, leave the vehicle disarmed
-and leave a readable, complete results file if it made one.  Only exit codes, output and
-files are checked, never durations.  The drawn delays are in every failure message;
-``AUVDOCK_SIGINT_SEED`` replays a draw.
+``auvdock fly --arm`` runs in its own process against an in-process ``VehicleSim`` on
+127.0.0.1 (wall clock), and gets a real SIGINT at a chosen point of its life
+(tests/helpers/ctrl_c.py): while the controller is built, just connected, about to arm,
+just armed, after control steps drawn once from a fixed seed, and during the ending (a
+SIGINT during the ending in simulated time is in tests/test_fly.py).  The point is in the
+program, not in time, so every moment is exercised at any machine load and none can come
+after the run has ended.  Each run must exit with status 130, print no traceback and one
+"interrupted" line that names only files that are there, leave the vehicle disarmed (never
+armed, before the arm command) and leave a readable, complete results file once it flew.
+Only exit codes, output, files and the vehicle's state are checked, never durations.
 """
 
 from __future__ import annotations
 
 import os
 import random
-import signal
+import re
 import subprocess
 import sys
-import time
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import h5py
-from helpers.loopback import HOST, TANK, free_port
+import pytest
+from helpers.loopback import HOST, TANK, arm_commands, free_port
 
 from auvdock.config.mission import load_mission
 from auvdock.results.store import read_run
 from auvdock.standins.vehicle_sim import VehicleSim
 
-N_MOMENTS = 6
-MAX_DELAY_S = 4.5  # after the command's first line; a run lasts 6 s or more from there
+CTRL_C = Path(__file__).resolve().parent / "helpers" / "ctrl_c.py"
+STEPS = sorted(random.Random(1234).sample(range(1, 40), 2))  # [8, 29]
+
+#: moment, whether fly armed the vehicle (sent the arm command) by then, whether it flew (results file)
+MOMENTS = [
+    pytest.param("call:auvdock.fly.session:build_autopilot", False, False, id="building-the-controller"),
+    pytest.param("fly-event:connected", False, False, id="just-connected"),
+    pytest.param("fly-event:arming", False, False, id="about-to-arm"),
+    pytest.param("fly-event:armed", True, False, id="just-armed"),
+    *[pytest.param(f"fly-step:{k}", True, True, id=f"after-step-{k}") for k in STEPS],
+    pytest.param("fly-event:disarmed", True, True, id="while-ending"),
+]
 
 
-def _fly_interrupted(delay_s: float, out: Path, mission) -> dict:
-    """One fly process, SIGINT after ``delay_s`` (s after its first line); what happened."""
+@pytest.mark.parametrize(("moment", "armed", "flew"), MOMENTS)
+def test_sigint_at_every_moment_exits_130_cleanly(moment: str, armed: bool, flew: bool, tmp_path) -> None:
     port = free_port()
     # wall clock; held at the start while disarmed, as vehicle-sim does
-    sim = VehicleSim(mission, port=f"udpout:{HOST}:{port}", hold_start=True).start()
-    env = dict(os.environ, PYTHONUNBUFFERED="1")
-    args = ["fly", str(TANK), "--port", f"udpin:{HOST}:{port}", "--out", str(out), "--arm", "--timeout", "4"]
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "auvdock.cli", *args],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        env=env,
-        text=True,
-    )
+    sim = VehicleSim(load_mission(TANK), port=f"udpout:{HOST}:{port}", hold_start=True).start()
+    timeout = "1" if moment == "fly-event:disarmed" else "30"  # the ending comes by timeout; else cut first
+    args = ["fly", str(TANK), "--port", f"udpin:{HOST}:{port}", "--out", str(tmp_path), "--arm"]
+    args += ["--timeout", timeout]
     try:
-        first = proc.stdout.readline()  # "fly tank_0p6hz / oracle on ...: ARMED"
-        time.sleep(delay_s)
-        sent = proc.poll() is None
-        if sent:
-            proc.send_signal(signal.SIGINT)
-        try:
-            rest, err = proc.communicate(timeout=120)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            rest, err = proc.communicate()
-        time.sleep(0.2)  # the vehicle handles what reached it
-        return {
-            "delay_s": delay_s,
-            "sent": sent,
-            "rc": proc.returncode,
-            "stdout": first + rest,
-            "stderr": err,
-            "armed": sim.armed,
-            "files": sorted(out.glob("*.h5")),
-        }
+        res = subprocess.run(
+            [sys.executable, str(CTRL_C), moment, *args],
+            env=dict(os.environ, PYTHONUNBUFFERED="1"),
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
     finally:
-        if proc.poll() is None:
-            proc.kill()
         sim.stop()
-
-
-def test_sigint_at_random_moments_exits_130_cleanly(tmp_path) -> None:
-    seed = int(os.environ.get("AUVDOCK_SIGINT_SEED", random.SystemRandom().randrange(2**32)))
-    rng = random.Random(seed)
-    mission = load_mission(TANK)
-    results: list[dict] = []
-    attempt = 0
-    with ThreadPoolExecutor(max_workers=N_MOMENTS) as pool:  # all at once
-        while sum(r["sent"] for r in results) < N_MOMENTS and attempt < 3 * N_MOMENTS:
-            jobs = []
-            for _ in range(N_MOMENTS - sum(r["sent"] for r in results)):
-                attempt += 1
-                out = tmp_path / f"run{attempt}"
-                out.mkdir()
-                jobs.append(pool.submit(_fly_interrupted, rng.uniform(0.0, MAX_DELAY_S), out, mission))
-            results.extend(job.result() for job in jobs)
-    interrupted = [r for r in results if r["sent"]]
-    where = f"seed {seed}, delays {[round(r['delay_s'], 2) for r in results]}"
-    assert len(interrupted) >= N_MOMENTS, where
-    for r in interrupted:
-        what = f"{where}; this one {r['delay_s']:.2f} s:\n{r['stdout']}\n{r['stderr']}"
-        assert r["rc"] == 130, what
-        assert "Traceback" not in r["stderr"] + r["stdout"], what
-        assert "interrupted" in r["stderr"], what
-        assert not r["armed"], what  # every ending disarms
-        for h5 in r["files"]:  # a results file, if the run had made one, reads back whole
-            run = read_run(h5)
-            with h5py.File(h5, "r") as f:
-                assert bool(f.attrs["complete"]), what
-                assert f.attrs["reason"] in ("interrupted", "timeout", "docked"), what
-            assert len(run.time_s) >= 0
+    what = f"{moment}:\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
+    assert res.returncode == 130, what
+    assert "Traceback" not in res.stderr + res.stdout, what
+    last = [ln for ln in res.stderr.splitlines() if ln.strip()][-1]
+    assert last.startswith("interrupted"), what
+    for named in re.findall(r"\S+\.(?:h5|tlog)\b", res.stdout + last):  # only files that are there
+        assert Path(named).is_file(), what
+    if not armed:
+        assert arm_commands(sim) == [], what  # never armed
+    assert not sim.armed, what  # every ending disarms
+    files = sorted(tmp_path.glob("*.h5"))
+    assert len(files) == (1 if flew else 0), what
+    for h5 in files:  # the results file reads back whole, its outcome written
+        run = read_run(h5)
+        with h5py.File(h5, "r") as f:
+            assert bool(f.attrs["complete"]) and f.attrs["reason"] == "interrupted", what
+        assert f"results in {h5}" in last and len(run.time_s) > 0, what
+    if moment.startswith("call:"):
+        assert last == "interrupted: before connecting to the vehicle; nothing was sent", what
+        assert sim.received == [], what

@@ -31,6 +31,7 @@ def _run(m, truth, variant: str, autopilot_cls=Autopilot):
     return simulate(truth, autopilot=ap).outcome, ap
 
 
+@pytest.mark.slow
 def test_plant_error_leaves_no_offset_with_the_robust_variant() -> None:
     """+3.4 N more buoyancy (5.4 N net instead of 2 N) and 30 % less damping in the plant: the
     paper's Oracle holds off the dock, the robust one docks, and its disturbance estimate is the

@@ -45,6 +45,7 @@ def test_robust_fse_docks_where_the_paper_variant_does_not(controller, case) -> 
 
 
 @pytest.mark.parametrize("controller", ["sequential", "optimized"])
+@pytest.mark.slow
 def test_robust_fse_docks_with_plant_model_error(controller) -> None:
     """Still water (the tank trial), a plant whose thrusters push 88 % of the command, with
     1.9 N more buoyancy and 30 % more damping than the model: the paper's flow filter reads the

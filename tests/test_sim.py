@@ -46,6 +46,7 @@ def test_oracle_docks_in_case2(oracle_case2) -> None:
     assert abs(s.outcome["heading_error_rad"]) < np.radians(5)
 
 
+@pytest.mark.slow
 def test_naive_fails_in_case2() -> None:
     """The paper's finding: a controller blind to a 0.7 m/s current cannot close the last centimetres."""
     s = simulate(
@@ -137,6 +138,7 @@ def test_solver_failure_does_not_stop_the_run(tmp_path: Path) -> None:
     assert np.all(np.isfinite(r.thrust_N))
 
 
+@pytest.mark.slow
 def test_cli_sim_and_plot(tmp_path: Path) -> None:
     res = runner.invoke(
         app, ["sim", str(ROOT / "missions" / "still.yaml"), "--out", str(tmp_path), "--timeout", "40"]

@@ -96,6 +96,7 @@ def test_shipped_missions_are_in_the_package() -> None:
 
 
 @pytest.mark.skipif(os.environ.get("AUVDOCK_SKIP_INSTALL_TEST") == "1", reason="AUVDOCK_SKIP_INSTALL_TEST=1")
+@pytest.mark.slow
 def test_plain_install_runs_shipped_missions_from_any_folder(tmp_path: Path) -> None:
     """``pip install .`` (not editable) into a fresh venv, then from another folder
     ``auvdock missions`` lists them and ``auvdock sim gyre`` docks.  The venv sees this

@@ -308,6 +308,7 @@ def small(tmp_path_factory):
     return path, res, seen
 
 
+@pytest.mark.slow
 def test_worker_runs_equal_runs_in_this_process(small) -> None:
     path, res, seen = small
     assert res.total == 8 and len(res.ran) == 8 and not res.errors and not res.skipped
@@ -380,6 +381,7 @@ def test_resume_on_a_finished_sweep_runs_nothing(small) -> None:
         run_sweep(path, res.out_dir, workers=2)
 
 
+@pytest.mark.slow
 def test_report_writes_figures_and_summary(small, tmp_path: Path) -> None:
     _, res, _ = small
     paths = report_sweep(res.path, tmp_path / "a")
@@ -409,6 +411,7 @@ def test_report_writes_figures_and_summary(small, tmp_path: Path) -> None:
 # ------------------------------------------------------------------------------ the command
 
 
+@pytest.mark.slow
 def test_sweep_command_twice_resume_and_force(tmp_path: Path) -> None:
     path = _write(tmp_path, "cli", SMALL.format(name="cli").replace("seeds: 2", "seeds: 1"))
     out = tmp_path / "out"
@@ -444,6 +447,7 @@ def test_bad_sweep_file_exits_2(tmp_path: Path) -> None:
 # ------------------------------------------------------------------------------ faults
 
 
+@pytest.mark.slow
 def test_killed_worker_is_retried_and_a_raising_run_is_recorded(tmp_path: Path) -> None:
     path = _write(tmp_path, "faulty")
     faults = functools.partial(
@@ -468,6 +472,7 @@ def test_killed_worker_is_retried_and_a_raising_run_is_recorded(tmp_path: Path) 
     assert again.ran == ["p0000-optimized-s1-m0"] and not again.errors
 
 
+@pytest.mark.slow
 def test_ctrl_c_keeps_finished_rows_and_resume_completes(tmp_path: Path) -> None:
     path = _write(tmp_path, "interrupted")
     done = []
@@ -492,6 +497,7 @@ def test_ctrl_c_keeps_finished_rows_and_resume_completes(tmp_path: Path) -> None
 # ------------------------------------------------------------------------------ on a Dask cluster
 
 
+@pytest.mark.slow
 def test_sweep_on_a_dask_cluster(tmp_path: Path) -> None:
     """The same sweep through --scheduler: a run whose Dask worker dies every time is retried once
     and recorded as failed; a raising run is recorded; the others are done."""
