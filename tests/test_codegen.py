@@ -24,6 +24,14 @@ def cache(tmp_path, monkeypatch):
     return tmp_path / "cache" / "solvers"
 
 
+@pytest.fixture
+def quick(monkeypatch):
+    """-O0 for the tests of the cache's mechanics (what is built, kept, rebuilt): the generated C
+    compiles in about 5 s instead of 23 s; the flags are part of the cache key, so nothing mixes.
+    The claim about the shipped flags (same bits as uncompiled) keeps them."""
+    monkeypatch.setattr(codegen, "CFLAGS", ("-O0", "-fPIC", "-shared"))
+
+
 def _small(**updates):
     # a short horizon keeps the generated C small (a few seconds to compile)
     m = load_mission(ROOT / "missions" / "diagonal.yaml").with_updates(
@@ -37,7 +45,7 @@ def _first_move(c, m) -> np.ndarray:
 
 
 @pytest.mark.slow
-def test_build_once_then_load_and_same_answer(cache, monkeypatch) -> None:
+def test_build_once_then_load_and_same_answer(cache, quick, monkeypatch) -> None:
     m, v, d = _small()
     c1 = build_controller(m.with_controller("oracle").controller, v, d)
     assert c1.mpc.build == "compiled"
@@ -54,7 +62,7 @@ def test_build_once_then_load_and_same_answer(cache, monkeypatch) -> None:
 
 
 @pytest.mark.slow
-def test_changed_parameter_builds_anew(cache) -> None:
+def test_changed_parameter_builds_anew(cache, quick) -> None:
     m, v, d = _small()
     assert build_controller(m.with_controller("oracle").controller, v, d).mpc.build == "compiled"
     m2, v2, d2 = _small(**{"controller.weights.R": 20.0})
@@ -67,7 +75,7 @@ def test_changed_parameter_builds_anew(cache) -> None:
 
 
 @pytest.mark.slow
-def test_corrupted_cache_file_is_rebuilt_with_a_warning(cache) -> None:
+def test_corrupted_cache_file_is_rebuilt_with_a_warning(cache, quick) -> None:
     m, v, d = _small()
     build_controller(m.with_controller("oracle").controller, v, d)
     (so,) = cache.glob("rti_qp_data-*.so")
