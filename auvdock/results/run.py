@@ -46,6 +46,7 @@ from auvdock.results.store import (
     RunWriter,
     _attr_value,
     _decode,
+    checked_row,
     read_run,
 )
 
@@ -677,44 +678,9 @@ class MemoryRecorder:
             If the run is finished.
         """
         self._check_open("append")
-        missing = [name for name in self._series if name not in row]
-        if missing:
-            raise ValueError(f"<memory>: append() is missing dataset(s): {', '.join(missing)}")
-        unknown = sorted(set(row) - set(self._series))
-        if unknown:
-            raise ValueError(
-                f"<memory>: append() got unknown dataset(s): {', '.join(unknown)} "
-                "(declare extras with extra_series=...)"
-            )
-        converted = {name: self._convert(name, row[name], *spec) for name, spec in self._series.items()}
+        converted = checked_row(row, self._series, self._status_codes, "<memory>")
         for name, value in converted.items():
             self._rows[name].append(value)
-
-    def _convert(self, name: str, value: Any, shape: tuple[int, ...], dtype: np.dtype) -> np.ndarray:
-        if name == "solver_status":
-            if isinstance(value, str):
-                if value not in self._status_codes:
-                    known = ", ".join(self._status_codes)
-                    raise ValueError(f"solver_status: unknown status name {value!r}; known: {known}")
-                value = self._status_codes[value]
-            raw = np.asarray(value)
-            if raw.shape != shape:
-                raise ValueError(f"solver_status: expected a scalar code, got shape {raw.shape}")
-            if raw.dtype.kind not in "biu" and not (
-                raw.dtype.kind == "f" and np.isfinite(raw) and float(raw) == int(raw)
-            ):
-                raise ValueError(f"solver_status: not an integer code: {value!r}")
-            code = int(raw)
-            if not -128 <= code <= 127:
-                raise ValueError(f"solver_status: code {code} does not fit int8")
-            return np.array(code, dtype=dtype)
-        try:
-            arr = np.array(value, dtype=dtype, copy=True)
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"{name}: value is not numeric with row shape {shape}: {exc}") from exc
-        if arr.shape != shape:
-            raise ValueError(f"{name}: expected row shape {shape}, got shape {arr.shape}")
-        return arr
 
     def flush(self) -> None:
         """Nothing to do (the writer's interface)."""

@@ -98,6 +98,7 @@ __all__ = [
     "BASE_SERIES",
     "STRING_ATTRS",
     "RunWriter",
+    "checked_row",
     "RunResults",
     "read_run",
     "open_format",
@@ -115,6 +116,7 @@ FLUSH_PERIOD_S = 1.0
 def flush_steps(dt_s: float) -> int:
     """``flush_every`` for a control period ``dt_s`` (s): :data:`FLUSH_PERIOD_S` worth of steps."""
     return max(1, round(FLUSH_PERIOD_S / float(dt_s)))
+
 
 #: Value of the ``format`` attribute that marks a run group.
 FORMAT = "auvdock-run"
@@ -220,6 +222,69 @@ def _decode_attrs(attrs: h5py.AttributeManager) -> dict[str, Any]:
 
 
 # ----------------------------------------------------------------------------- writer
+
+
+def checked_row(
+    row: dict[str, Any],
+    series: dict[str, tuple[tuple[int, ...], np.dtype]],
+    status_codes: dict[str, int],
+    label: str,
+) -> dict[str, np.ndarray]:
+    """One row checked against the declared ``series`` (name -> (row shape, dtype)) and converted,
+    copied: what every sink of a run (:class:`RunWriter`, :class:`auvdock.results.run.MemoryRecorder`)
+    appends.  ``solver_status`` takes an int code or a status name (``status_codes``).
+
+    Raises
+    ------
+    ValueError
+        Naming ``label`` and the dataset, for a missing or unknown key, a wrong shape or a value
+        that is not numeric.
+    """
+    missing = [name for name in series if name not in row]
+    if missing:
+        raise ValueError(f"{label}: append() is missing dataset(s): {', '.join(missing)}")
+    unknown = sorted(set(row) - set(series))
+    if unknown:
+        raise ValueError(
+            f"{label}: append() got unknown dataset(s): {', '.join(unknown)} "
+            "(declare extras with extra_series=...)"
+        )
+    return {
+        name: _converted(name, row[name], shape, dtype, status_codes)
+        for name, (shape, dtype) in series.items()
+    }
+
+
+def _converted(
+    name: str, value: Any, shape: tuple[int, ...], dtype: np.dtype, status_codes: dict[str, int]
+) -> np.ndarray:
+    if name == "solver_status":
+        if isinstance(value, str):
+            if value not in status_codes:
+                known = ", ".join(status_codes)
+                raise ValueError(f"solver_status: unknown status name {value!r}; known: {known}")
+            value = status_codes[value]
+        try:
+            raw = np.asarray(value)
+        except Exception as exc:  # pragma: no cover - numpy rarely fails here
+            raise ValueError(f"solver_status: not an integer code: {value!r}") from exc
+        if raw.shape != shape:
+            raise ValueError(f"solver_status: expected a scalar code, got shape {raw.shape}")
+        if raw.dtype.kind not in "biu" and not (
+            raw.dtype.kind == "f" and np.isfinite(raw) and float(raw) == int(raw)
+        ):
+            raise ValueError(f"solver_status: not an integer code: {value!r}")
+        code = int(raw)
+        if not -128 <= code <= 127:
+            raise ValueError(f"solver_status: code {code} does not fit int8")
+        return np.array(code, dtype=dtype)
+    try:
+        arr = np.array(value, dtype=dtype, copy=True)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name}: value is not numeric with row shape {shape}: {exc}") from exc
+    if arr.shape != shape:
+        raise ValueError(f"{name}: expected row shape {shape}, got shape {arr.shape}")
+    return arr
 
 
 class RunWriter:
@@ -457,51 +522,11 @@ class RunWriter:
             If the writer is closed or the run is finished.
         """
         self._check_open("append")
-        missing = [name for name in self._series if name not in row]
-        if missing:
-            raise ValueError(f"{self._label}: append() is missing dataset(s): {', '.join(missing)}")
-        unknown = sorted(set(row) - set(self._series))
-        if unknown:
-            raise ValueError(
-                f"{self._label}: append() got unknown dataset(s): {', '.join(unknown)} "
-                "(declare extras with extra_series=...)"
-            )
-        converted: dict[str, np.ndarray] = {}
-        for name, (shape, dtype) in self._series.items():
-            converted[name] = self._convert(name, row[name], shape, dtype)
+        converted = checked_row(row, self._series, self._status_codes, self._label)
         pending = self._log[1]
         pending.append(converted)  # one atomic list operation: the row is in, or not
         if len(pending) >= self._flush_every:
             self.flush()
-
-    def _convert(self, name: str, value: Any, shape: tuple[int, ...], dtype: np.dtype) -> np.ndarray:
-        if name == "solver_status":
-            if isinstance(value, str):
-                if value not in self._status_codes:
-                    known = ", ".join(self._status_codes)
-                    raise ValueError(f"solver_status: unknown status name {value!r}; known: {known}")
-                value = self._status_codes[value]
-            try:
-                raw = np.asarray(value)
-            except Exception as exc:  # pragma: no cover - numpy rarely fails here
-                raise ValueError(f"solver_status: not an integer code: {value!r}") from exc
-            if raw.shape != shape:
-                raise ValueError(f"solver_status: expected a scalar code, got shape {raw.shape}")
-            if raw.dtype.kind not in "biu" and not (
-                raw.dtype.kind == "f" and np.isfinite(raw) and float(raw) == int(raw)
-            ):
-                raise ValueError(f"solver_status: not an integer code: {value!r}")
-            code = int(raw)
-            if not -128 <= code <= 127:
-                raise ValueError(f"solver_status: code {code} does not fit int8")
-            return np.array(code, dtype=dtype)
-        try:
-            arr = np.array(value, dtype=dtype, copy=True)
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"{name}: value is not numeric with row shape {shape}: {exc}") from exc
-        if arr.shape != shape:
-            raise ValueError(f"{name}: expected row shape {shape}, got shape {arr.shape}")
-        return arr
 
     def flush(self) -> None:
         """Write buffered rows to the datasets and flush the HDF5 file to the OS."""
