@@ -108,7 +108,7 @@ class TruthCameraStream:
             The mission's camera file is missing or does not read.
         """
         renderer = SyntheticCamera.from_mission(
-            mission, mission.build_dock(), pose_fn, seed=seed, clock=clock
+            mission, mission.dock.build(), pose_fn, seed=seed, clock=clock
         )
         rate = mission.camera.synthetic.rate_hz
         return cls(renderer, pose_fn, host, port, rate_hz=rate, encoder=encoder, clock=clock)

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import typer
 from rich.padding import Padding
 from rich.table import Table
@@ -12,6 +13,7 @@ from rich.text import Text
 
 from auvdock.cli.app import app, console, load_or_exit
 from auvdock.config.mission import Mission
+from auvdock.world.dock import HeaveDock
 
 
 def _flatten(prefix: str, value: Any, rows: list[tuple[str, str]]) -> None:
@@ -58,12 +60,27 @@ def validate(
         if meaning:
             console.print(Padding(Text(meaning, style="dim"), (0, 0, 0, 4), expand=False))
     flow = m.build_flow()
-    dock = m.build_dock()
+    sea = m.build_sea()
+    dock = m.build_dock(sea)
     console.print(f"flow: {flow.describe()}")
-    console.print(
-        f"dock: at {tuple(round(c, 3) for c in dock.position_ned_m)} m NED, heave "
-        f"{dock.amplitude_m:g} m at {dock.angular_frequency_rad_s:g} rad/s ({dock.frequency_hz:.4g} Hz)"
-    )
+    if sea is None:
+        console.print("sea: no waves")
+    else:
+        console.print(f"sea: {sea.describe()}", markup=False, highlight=False)
+        w = sea.omega_rad_s
+        console.print(
+            f"     periods {2 * np.pi / w.max():.3g}-{2 * np.pi / w.min():.3g} s, wavelengths "
+            f"{sea.wavelength_m.min():.3g}-{sea.wavelength_m.max():.3g} m",
+            markup=False,
+            highlight=False,
+        )
+    if isinstance(dock, HeaveDock):
+        console.print(
+            f"dock: at {tuple(round(c, 3) for c in dock.position_ned_m)} m NED, heave "
+            f"{dock.amplitude_m:g} m at {dock.angular_frequency_rad_s:g} rad/s ({dock.frequency_hz:.4g} Hz)"
+        )
+    else:
+        console.print(f"dock: {dock.describe()}", markup=False, highlight=False)
     console.print("[green]valid[/green]")
 
 

@@ -29,6 +29,7 @@ from pydantic import (
 )
 
 from auvdock.config.schema import NonNegFloat, PosFloat, Strict, Vec3, Vec12, first_error, fixed_len
+from auvdock.config.sea import SeaSpec, WecSpec
 from auvdock.config.yamlio import load_yaml_strict
 from auvdock.controllers.registry import controller_names, settings_for, settings_union, split_controller
 from auvdock.controllers.settings import MPCSettings
@@ -40,9 +41,12 @@ from auvdock.vehicle import Vehicle, load_vehicle, preset_names
 from auvdock.vehicle.params import VehicleParamsError
 from auvdock.world.dock import HeaveDock
 from auvdock.world.flow import ConstantCurrent, DoubleGyre, FlowField, StillWater, flow_case, flow_case_names
+from auvdock.world.spectra import SpectrumFileError
 
 if TYPE_CHECKING:
     from auvdock.camera.model import CameraMount
+    from auvdock.world.waves import WaveComponents
+    from auvdock.world.wec_dock import WecDock
 
 __all__ = [
     "Mission",
@@ -199,6 +203,11 @@ class DockSpec(Strict):
     position_ned_m: Vec3 = Field(default=[2.0, 3.0, 5.0], description="mean position (north, east, down), m")
     heading_deg: float = Field(default=0.0, description="target heading of the docked vehicle, degrees")
     heave: HeaveSpec = Field(default_factory=HeaveSpec)
+    wec: WecSpec | None = Field(
+        default=None,
+        description="the dock hangs below a WEC buoy heaving in the mission's sea (its linear "
+        "hydrodynamics); omitted: the paper's sinusoidal heave (dock.heave)",
+    )
     source: Literal["model", "mavlink", "camera"] = Field(
         default="model",
         description=(
@@ -232,8 +241,14 @@ class DockSpec(Strict):
 
         return default_layout() if self.markers is None else MarkerLayout.from_dict(self.markers)
 
+    @model_validator(mode="after")
+    def _one_motion(self) -> DockSpec:
+        if self.wec is not None and "heave" in self.model_fields_set and self.heave != HeaveSpec():
+            raise ValueError("give either heave (the paper's sinusoid) or wec (a buoy in the sea), not both")
+        return self
+
     def build(self) -> HeaveDock:
-        """The dock this spec describes."""
+        """The paper's sinusoidal dock this spec describes (:meth:`Mission.build_dock` builds a WEC dock)."""
         h = self.heave
         return HeaveDock(
             position_ned_m=tuple(float(v) for v in self.position_ned_m),  # type: ignore[arg-type]
@@ -439,9 +454,14 @@ class Mission(Strict):
     sensors: SensorSettings = Field(default_factory=SensorSettings)
     docking: DockingSpec = Field(default_factory=DockingSpec)
     simulation: SimulationSpec = Field(default_factory=SimulationSpec)
+    sea: SeaSpec = Field(
+        default_factory=SeaSpec, description="water depth and waves (omitted: no waves, as in the paper)"
+    )
     fly: FlySpec = Field(default_factory=FlySpec)
     camera: CameraSpec = Field(default_factory=CameraSpec)
-    seed: Annotated[int, Field(ge=0)] = Field(default=0, description="random seed (sensor noise)")
+    seed: Annotated[int, Field(ge=0)] = Field(
+        default=0, description="random seed (sensor noise; the sea's phases on a stream of their own)"
+    )
     output: OutputSpec = Field(default_factory=OutputSpec)
 
     # where the file was read from (not part of the schema)
@@ -512,9 +532,81 @@ class Mission(Strict):
         """The true flow field."""
         return self.flow.build()
 
-    def build_dock(self) -> HeaveDock:
-        """The dock."""
-        return self.dock.build()
+    def build_sea(self) -> WaveComponents | None:
+        """The realised sea (None without waves): the same components from the same seed every call.
+
+        The waves ride the current at the dock's mean position at t = 0 (``sea.doppler``).
+        """
+        if self.sea.waves is None:
+            return None
+        p = np.asarray(self.dock.position_ned_m, dtype=float)
+        v = self.build_flow().velocity(p, 0.0)
+        base = self._source.parent if self._source is not None else None
+        return self.sea.build(self.seed, self.controller.dt_s, (float(v[0]), float(v[1])), base)
+
+    def build_dock(self, sea: WaveComponents | None = None) -> HeaveDock | WecDock:
+        """The dock: the paper's sinusoid, or a WEC buoy heaving in the sea (``dock.wec``).
+
+        ``sea``: the realised sea (default: :meth:`build_sea`), so that the plant's water and the
+        dock's motion come from one object.
+        """
+        if self.dock.wec is None:
+            return self.dock.build()
+        from auvdock.world.wec_dock import WecDock
+        from auvdock.world.wec_table import load_heave_table
+
+        sea = self.build_sea() if sea is None else sea
+        if sea is None:
+            raise ValueError("dock.wec: a WEC dock moves with the waves; give sea.waves")
+        w = self.dock.wec
+        table = Path(w.table)
+        if table.suffix == "" and not table.exists():
+            coefficients = load_heave_table(w.table)
+        else:
+            if not table.is_absolute() and self._source is not None:
+                table = self._source.parent / table
+            coefficients = load_heave_table(table)
+        return WecDock.from_coefficients(
+            sea,
+            coefficients,
+            tuple(float(v) for v in self.dock.position_ned_m),  # type: ignore[arg-type]
+            math.radians(self.dock.heading_deg),
+            pto_damping_N_s_m=w.pto_damping_N_s_m,
+            viscous_damping_N_s_m=w.viscous_damping_N_s_m,
+            mooring_stiffness_N_m=w.mooring_stiffness_N_m,
+        )
+
+    def world_problem(self) -> tuple[str, str] | None:
+        """The first impossible setting of the sea and the dock in it, as (field path, problem), or None.
+
+        A period the run cannot resolve, water shallower than the dock or the vehicle, a WEC
+        dock without waves, a spectrum or coefficient file that does not read.
+        """
+        sea = self.sea
+        bad = sea.check(self.controller.dt_s)
+        if bad is not None:
+            return bad
+        h = sea.depth_m
+        dock_depth = float(self.dock.position_ned_m[2])
+        if dock_depth >= h:
+            return ("sea.water_depth_m", f"{h:g} m, but the dock is at {dock_depth:g} m depth")
+        start_depth = float(self.start.state[2])
+        if start_depth >= h:
+            return ("sea.water_depth_m", f"{h:g} m, but the vehicle starts at {start_depth:g} m depth")
+        if self.dock.wec is not None and sea.waves is None:
+            return ("dock.wec", "a WEC dock moves with the waves; give sea.waves")
+        try:
+            realised = self.build_sea()
+        except SpectrumFileError as e:
+            return ("sea.waves.file", str(e))
+        except ValueError as e:
+            return ("sea.waves", str(e))
+        if self.dock.wec is not None:
+            try:
+                self.build_dock(realised)
+            except ValueError as e:
+                return ("dock.wec.table", str(e))
+        return None
 
     def start_state(self) -> np.ndarray:
         """Initial state (12,)."""
@@ -716,6 +808,11 @@ class Mission(Strict):
                 m.controller.weights.R_for(n)
             except ValueError as e:
                 raise MissionError(label, "controller.weights.R", str(e)) from None
+        world = ("sea", "dock", "start", "seed", "controller", "flow")
+        if any(p[0] in world for p in flat) or base is not self:
+            bad = m.world_problem()
+            if bad is not None:
+                raise MissionError(label, *bad)
         return m
 
 
@@ -742,6 +839,9 @@ def parse_mission(data: Any, source: str | Path = "<mission>") -> Mission:
         m.controller.weights.R_for(n)
     except ValueError as e:
         raise MissionError(source, "controller.weights.R", f"{e} ({m.build_vehicle().name})") from None
+    bad = m.world_problem()
+    if bad is not None:
+        raise MissionError(source, *bad)
     if m.simulation.actuators == "ardusub" and n != 8:
         raise MissionError(
             source,

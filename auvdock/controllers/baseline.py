@@ -19,7 +19,7 @@ from auvdock.controllers.base import ControlOutput, Estimate, Plan
 from auvdock.controllers.mpc import DockingMPC
 from auvdock.controllers.settings import MPCSettings
 from auvdock.vehicle import Vehicle
-from auvdock.world.dock import HeaveDock, TrackedDock
+from auvdock.world.dock import DockMotion
 
 __all__ = [
     "NaiveSettings",
@@ -51,7 +51,7 @@ class OracleSettings(MPCSettings):
 def build_mpc(
     settings: MPCSettings,
     vehicle: Vehicle,
-    dock: HeaveDock | TrackedDock,
+    dock: DockMotion,
     prediction: str,
     solver: str,
     **kw,
@@ -92,7 +92,7 @@ class BaselineMPC:
     extra_series: dict[str, tuple[int, ...]] = {}
 
     def __init__(
-        self, settings: MPCSettings, vehicle: Vehicle, dock: HeaveDock | TrackedDock, solver: str
+        self, settings: MPCSettings, vehicle: Vehicle, dock: DockMotion, solver: str
     ) -> None:
         if settings.type not in self._PREDICTION:
             raise ValueError(f"not a baseline controller: {settings.type!r}")

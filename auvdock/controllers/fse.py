@@ -68,7 +68,7 @@ from auvdock.runtime.interrupts import SigintDeferred
 from auvdock.sensing.settings import SensorSettings
 from auvdock.vehicle import Vehicle
 from auvdock.vehicle.state import ANG, ATT, ETA
-from auvdock.world.dock import HeaveDock, TrackedDock
+from auvdock.world.dock import DockMotion
 
 __all__ = ["FSEMPC", "PerceptionLaw", "SequentialSettings", "OptimizedSettings"]
 
@@ -253,7 +253,7 @@ class FSEMPC:
         self,
         settings: SequentialSettings | OptimizedSettings,
         vehicle: Vehicle,
-        dock: HeaveDock | TrackedDock,
+        dock: DockMotion,
         solver: str,
         estimator: EstimatorSettings,
         sensors: SensorSettings,

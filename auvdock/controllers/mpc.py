@@ -69,7 +69,7 @@ from auvdock.runtime.interrupts import SigintDeferred
 from auvdock.vehicle import Vehicle
 from auvdock.vehicle.model import rk4
 from auvdock.vehicle.state import ANG, ATT, ETA, LIN, NU, POS, YAW
-from auvdock.world.dock import HeaveDock, TrackedDock
+from auvdock.world.dock import DockMotion
 
 __all__ = ["DockingMPC", "MPCResult", "shift_solution"]
 
@@ -128,7 +128,7 @@ class DockingMPC:
     ----------
     vehicle : Vehicle
         The vehicle (its symbolic model is the prediction model's source).
-    dock : HeaveDock or TrackedDock
+    dock : DockMotion
         The dock whose motion is known over the horizon (Assumption 2).
     horizon : int
         N, steps.
@@ -185,7 +185,7 @@ class DockingMPC:
     def __init__(
         self,
         vehicle: Vehicle,
-        dock: HeaveDock | TrackedDock,
+        dock: DockMotion,
         *,
         horizon: int = 10,
         dt: float = 0.05,

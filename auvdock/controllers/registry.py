@@ -36,7 +36,7 @@ from auvdock.controllers.solvers import SOLVERS
 from auvdock.estimation.flow_filter import EstimatorSettings
 from auvdock.sensing.settings import SensorSettings
 from auvdock.vehicle import Vehicle
-from auvdock.world.dock import HeaveDock, TrackedDock
+from auvdock.world.dock import DockMotion
 
 __all__ = [
     "ControllerEntry",
@@ -231,7 +231,7 @@ def resolve_solver(name: str, controller: str, variant: str | None = None) -> st
 def build_controller(
     settings: MPCSettings,
     vehicle: Vehicle,
-    dock: HeaveDock | TrackedDock,
+    dock: DockMotion,
     estimator: EstimatorSettings | None = None,
     sensors: SensorSettings | None = None,
 ) -> Controller:
@@ -241,7 +241,7 @@ def build_controller(
     ----------
     settings : MPCSettings
         A registered controller's settings (the mission's ``controller`` section).
-    vehicle, dock : Vehicle, HeaveDock
+    vehicle, dock : Vehicle, DockMotion
         The prediction model's vehicle and the dock whose motion is known (Assumption 2).
     estimator, sensors : EstimatorSettings, SensorSettings, optional
         The flow estimator's settings and the sensor noise it accounts for (FSE-MPCs);

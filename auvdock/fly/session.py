@@ -282,7 +282,13 @@ class FlySession:
                 "water-relative velocity sensor)",
             )
         self.telemetry = TelemetrySensors(mission.sensors, mission.estimation)
-        self._model_dock: HeaveDock = mission.build_dock()
+        if mission.dock.wec is not None:
+            raise MissionError(
+                mission.source or mission.name,
+                "dock.wec",
+                "a WEC dock in a simulated sea is for sim; fly needs the dock's motion model (dock.heave)",
+            )
+        self._model_dock: HeaveDock = mission.dock.build()
         self.dock: HeaveDock | TrackedDock = self._model_dock
         self._landing: LandingTargetSource | None = None
         if mission.dock.source == "mavlink":

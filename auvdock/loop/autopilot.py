@@ -29,7 +29,7 @@ from auvdock.sensing.settings import SensorSettings
 from auvdock.vehicle import Vehicle
 
 if TYPE_CHECKING:
-    from auvdock.world.dock import HeaveDock, TrackedDock
+    from auvdock.world.dock import DockMotion
 
 __all__ = ["Autopilot", "build_autopilot"]
 
@@ -41,7 +41,7 @@ class Autopilot:
     ----------
     settings : MPCSettings
         The controller's settings (its ``type`` picks it from the registry).
-    vehicle, dock : Vehicle, HeaveDock or TrackedDock
+    vehicle, dock : Vehicle, DockMotion
         The vehicle model and the dock whose motion is known (Assumption 2).
     estimator, sensors : EstimatorSettings, SensorSettings, optional
         The flow estimator's settings and the sensor noise it accounts for.
@@ -60,7 +60,7 @@ class Autopilot:
         self,
         settings: MPCSettings,
         vehicle: Vehicle,
-        dock: HeaveDock | TrackedDock,
+        dock: DockMotion,
         estimator: EstimatorSettings | None = None,
         sensors: SensorSettings | None = None,
         estimation: EstimationStage | None = None,
@@ -140,7 +140,7 @@ class Autopilot:
 
 
 def build_autopilot(
-    mission: Mission, vehicle: Vehicle, dock: HeaveDock | TrackedDock, controller: str | None = None
+    mission: Mission, vehicle: Vehicle, dock: DockMotion, controller: str | None = None
 ) -> Autopilot:
     """The autopilot a mission describes; ``controller`` overrides its type (shared settings kept).
 

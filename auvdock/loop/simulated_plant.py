@@ -2,9 +2,14 @@
 
 :class:`SimulatedPlant` is the :class:`~auvdock.loop.closed_loop.Plant` of ``sim``,
 ``compare`` and ``sweep``: the true state stepped by :class:`auvdock.world.plant.TruthPlant`
-(RK4 through the mission's flow field, the applied thrust held over the period), observed
-through :class:`auvdock.sensing.simulated.SimulatedSensors`.  The state it reports to the loop
-(recorded, and judged by the docking rule) is the truth.
+(RK4 through the mission's flow field and sea, the applied thrust held over the period),
+observed through :class:`auvdock.sensing.simulated.SimulatedSensors`.  The state it reports to
+the loop (recorded, and judged by the docking rule) is the truth; the water velocity it reports
+is the current plus the waves' orbital velocity at the vehicle.
+
+In a sea it records, per step (:attr:`SimulatedPlant.columns`): the orbital velocity and the
+water's acceleration at the vehicle, the sea's elevation at the dock, and the dock's 6-DOF pose
+and twist.
 """
 
 from __future__ import annotations
@@ -23,7 +28,19 @@ if TYPE_CHECKING:
     from auvdock.config.mission import Mission
     from auvdock.controllers.base import ControlOutput
     from auvdock.vehicle import Vehicle
+    from auvdock.world.dock import HeaveDock
     from auvdock.world.flow import FlowField
+    from auvdock.world.waves import WaveComponents
+    from auvdock.world.wec_dock import WecDock
+
+#: The per-step columns of a run in a sea: name -> per-row shape.
+SEA_COLUMNS: dict[str, tuple[int, ...]] = {
+    "wave_velocity_ned_m_s": (3,),
+    "water_acceleration_ned_m_s2": (3,),
+    "sea_elevation_at_dock_m": (),
+    "dock_pose": (6,),
+    "dock_twist": (6,),
+}
 
 __all__ = ["SimulatedPlant"]
 
@@ -41,13 +58,28 @@ class SimulatedPlant:
         The true current.
     dt : float
         Control period, s.
+    sea : WaveComponents, optional
+        The realised sea (:meth:`~auvdock.config.mission.Mission.build_sea`); None: currents only.
+    dock : HeaveDock or WecDock, optional
+        The true dock (its pose and twist are recorded in a sea).
     """
 
     columns: dict[str, tuple[int, ...]] = {}
 
-    def __init__(self, mission: Mission, vehicle: Vehicle, flow: FlowField, dt: float) -> None:
+    def __init__(
+        self,
+        mission: Mission,
+        vehicle: Vehicle,
+        flow: FlowField,
+        dt: float,
+        *,
+        sea: WaveComponents | None = None,
+        dock: HeaveDock | WecDock | None = None,
+    ) -> None:
         self.flow = flow
         self.dt = float(dt)
+        self.sea = sea
+        self.dock = dock
         self.truth = TruthPlant(
             vehicle,
             flow,
@@ -55,7 +87,10 @@ class SimulatedPlant:
             substeps=mission.simulation.substeps,
             dt=self.dt,
             keep_nonfinite=True,
+            sea=sea,
         )
+        if sea is not None:
+            self.columns = dict(SEA_COLUMNS)
         self.sensors = SimulatedSensors(mission.sensors, mission.estimation, vehicle, mission.seed)
         self._zero = np.zeros(vehicle.n_thrusters)
         self.start()
@@ -77,8 +112,21 @@ class SimulatedPlant:
         if not np.all(np.isfinite(x)):
             return Observation(t, x, np.full(3, np.nan), None)
         v_c = self.flow.velocity(x[POS], t)
+        columns: dict[str, np.ndarray] = {}
+        if self.sea is not None:
+            v_w, _, a_w = self.truth.water_at(x, t)
+            v_c = v_c + v_w
+            columns = {"wave_velocity_ned_m_s": v_w, "water_acceleration_ned_m_s2": a_w}
+            if self.dock is not None:
+                pose, twist = self.dock.pose(t)
+                n, e = pose[0], pose[1]
+                columns.update(
+                    sea_elevation_at_dock_m=np.asarray(self.sea.elevation(n, e, t)),
+                    dock_pose=pose,
+                    dock_twist=twist,
+                )
         readings = self.sensors.read(t, x, self._x_prev, self.dt, self._applied, v_c)
-        return Observation(t, x, v_c, readings, true_flow_ned=v_c)
+        return Observation(t, x, v_c, readings, true_flow_ned=v_c, columns=columns)
 
     def apply(self, t: float, command: ActuatorCommand) -> Applied:
         """Hold the thrust the actuator path produces over the coming period."""

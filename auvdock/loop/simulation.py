@@ -50,11 +50,19 @@ def idealisations(mission: Mission, reads_true_flow: bool) -> list[str]:
     out = []
     if mission.estimation == "truth":
         out.append("Assumption 1: the controllers know the true state (estimation: truth)")
-    out.append("Assumption 2: the controllers know the dock's motion (the mission's dock trajectory)")
+    if mission.dock.wec is None:
+        out.append("Assumption 2: the controllers know the dock's motion (the mission's dock trajectory)")
+    else:
+        out.append(
+            "Assumption 2: the controllers know the dock's motion "
+            "(the WEC buoy's true heave in the realised sea)"
+        )
     if reads_true_flow:
         out.append("Assumption 3: the controller reads the true flow at the vehicle (its definition)")
     if mission.simulation.actuators == "ideal":
         out.append("ideal actuators: the commanded thrust is applied exactly (simulation.actuators: ideal)")
+    if mission.sea.waves is None:
+        out.append("calm sea: no waves act on the vehicle or the dock (no sea.waves)")
     return out
 
 
@@ -123,9 +131,10 @@ def simulate(
     with SigintDeferred():  # CasADi would swallow a Ctrl-C landing in the construction
         vehicle = mission.build_vehicle()
         flow = mission.build_flow()
-        dock = mission.build_dock()
+        sea = mission.build_sea()
+        dock = mission.build_dock(sea)
         ap = autopilot or build_autopilot(mission, vehicle, dock, controller)
-        plant = SimulatedPlant(mission, vehicle, flow, ap.dt)
+        plant = SimulatedPlant(mission, vehicle, flow, ap.dt, sea=sea, dock=dock)
         actuators = build_actuators(mission.simulation.actuators, vehicle)
     setup_s = time.perf_counter() - t_setup if autopilot is None else ap.build_time_s
     ap.reset()
@@ -158,6 +167,11 @@ def simulate(
             "estimation": mission.estimation,
             "actuators": f"{actuators.name}: {ACTUATOR_PATHS[actuators.name]}",
             "idealisations": json.dumps(idealisations(mission, ap.reads_true_flow)),
+            **(
+                {}
+                if sea is None
+                else {"sea": sea.describe(), "dock": getattr(dock, "describe", lambda: "sinusoidal heave")()}
+            ),
         },
         flush_every=flush_steps(dt),
     )
@@ -166,6 +180,8 @@ def simulate(
     if out is not None:
         with SigintDeferred():  # the run group is created whole, or not at all
             writer = RunWriter(out if not isinstance(out, str) else Path(out), group, **meta)
+            if sea is not None:
+                writer.write_sea(sea.to_arrays(), sea.attributes())
     recorder.sinks = [s for s in (writer, memory) if s is not None]
     try:
         result = closed_loop.run_closed_loop(

@@ -101,6 +101,7 @@ __all__ = [
     "checked_row",
     "RunResults",
     "read_run",
+    "read_sea",
     "open_format",
     "list_runs",
     "FLUSH_PERIOD_S",
@@ -546,6 +547,22 @@ class RunWriter:
             self._log = (n0 + m, pending[m:])
         self._file.flush()
 
+    def write_sea(self, arrays: dict[str, np.ndarray], attrs: dict[str, Any]) -> None:
+        """Store the realised sea in the run's ``sea`` subgroup: one dataset per component array
+        (``amplitude_m``, ``omega_rad_s``, ``wavenumber_rad_m``, ``direction_rad``, ``phase_rad``,
+        each (n,)) and its scalars as attributes (:meth:`auvdock.world.waves.WaveComponents.to_arrays`,
+        ``attributes``), so that the kinematics can be recomputed from the file alone
+        (:func:`read_sea`)."""
+        self._check_open("write_sea")
+        g = self._group.require_group("sea")
+        for name, a in arrays.items():
+            if name in g:
+                del g[name]
+            g.create_dataset(name, data=np.asarray(a, dtype=float))
+        for key, value in attrs.items():
+            g.attrs[key] = json.dumps(value) if isinstance(value, list | dict) else value
+        self._file.flush()
+
     def finish(self, outcome: dict[str, Any]) -> None:
         """Write the outcome attributes, mark the run complete and flush.
 
@@ -734,6 +751,32 @@ def read_run(source: str | Path | h5py.File, group: str = "/") -> RunResults:
     path = _checked_path(source)
     with h5py.File(path, "r") as f:
         return _read_group(f, gp, str(path))
+
+
+def read_sea(
+    source: str | Path | h5py.File, group: str = "/"
+) -> tuple[dict[str, np.ndarray], dict[str, Any]] | None:
+    """The realised sea of a run (:meth:`RunWriter.write_sea`) as (arrays, attributes), or None
+    for a run without waves; ``auvdock.world.waves.WaveComponents.from_arrays(*read_sea(...))``
+    rebuilds it."""
+    own = not isinstance(source, h5py.File)
+    f = source if isinstance(source, h5py.File) else h5py.File(_checked_path(source), "r")
+    try:
+        g = f[_normalize_group(group)]
+        if "sea" not in g:
+            return None
+        sg = g["sea"]
+        arrays = {name: np.asarray(sg[name]) for name in sg}
+        attrs: dict[str, Any] = {}
+        for key, value in sg.attrs.items():
+            v = _decode(value)
+            if isinstance(v, str) and v[:1] in "[{":
+                v = json.loads(v)
+            attrs[key] = v
+        return arrays, attrs
+    finally:
+        if own:
+            f.close()
 
 
 def open_format(path: str | Path, fmt: str, what: str) -> tuple[h5py.File, dict[str, Any]]:

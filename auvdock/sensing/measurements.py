@@ -36,6 +36,7 @@ import numpy as np
 
 from auvdock.vehicle.model import Smtrx, Sym, VehicleModel
 from auvdock.vehicle.state import ANG, ATT, LIN, NX, POS
+from auvdock.world.constants import GRAVITY_M_S2
 
 if TYPE_CHECKING:
     from auvdock.vehicle import Vehicle
@@ -43,7 +44,7 @@ if TYPE_CHECKING:
 __all__ = ["KINDS", "GRAVITY", "ANGLE_ROWS", "expression", "h", "measure"]
 
 #: Standard gravity, m/s^2 (the IMU's g_n = (0, 0, GRAVITY) in NED).
-GRAVITY = 9.80665
+GRAVITY = GRAVITY_M_S2
 
 #: Every measurement kind and its dimension.
 KINDS: dict[str, int] = {"attitude": 3, "gyro": 3, "accel": 3, "depth": 1, "position": 3, "dvl": 3}

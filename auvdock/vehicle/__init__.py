@@ -124,6 +124,54 @@ class Vehicle:
         self._flow_refs = getattr(self, "_flow_refs", []) + [flow]  # keep id() keys valid
         return fn
 
+    def sea_stage(self, flow: FlowField | None = None) -> ca.Function:
+        """The truth's state derivative in a sea, for an integrator that evaluates the waves itself.
+
+        ``(x[12], u[n], t, wave_velocity_ned[3], wave_accel_ned[3], wave_gradient_ned[3x3],
+        wave_current_ned[3]) -> x_dot[12]``: the waves' orbital velocity at the vehicle, its local
+        rate of change and its gradient ``du_i/dx_j`` (:class:`auvdock.world.waves.WaveKinematics`),
+        and the current the waves ride on (the Doppler shift's).  The current ``flow`` is
+        evaluated inside (at the vehicle's position and ``t``, with its rate along the path, as
+        in :meth:`stepper`).  The water velocity is the current's plus the orbital velocity; its
+        rate along the vehicle's path ``p_dot = R nu_1`` adds ``du/dt + (grad u) p_dot``; the
+        water's own acceleration (linear theory's material acceleration, ``du/dt + (grad u) U``)
+        drives the Froude-Krylov force (:meth:`auvdock.vehicle.model.VehicleModel.dynamics`).
+        :class:`auvdock.world.plant.TruthPlant` integrates it with RK4, evaluating the sea with
+        numpy at every stage.
+        """
+        key = ("sea_stage", id(flow))
+        if key in self._steppers:
+            return self._steppers[key]
+        m = self.model
+        x = ca.SX.sym("x", NX)
+        u = ca.SX.sym("u", self.n_thrusters)
+        t = ca.SX.sym("t")
+        vw = ca.SX.sym("wave_velocity_ned", 3)
+        aw = ca.SX.sym("wave_accel_ned", 3)
+        Jw = ca.SX.sym("wave_gradient_ned", 3, 3)
+        Uw = ca.SX.sym("wave_current_ned", 3)
+        p_dot = ca.mtimes(m.rotation(x[ETA]), x[LIN])
+        vc: ca.SX | ca.DM
+        vc_dot: ca.SX | ca.DM
+        if flow is None:
+            vc, vc_dot = ca.DM.zeros(3), ca.DM.zeros(3)
+        else:
+            vc = flow.symbolic(x[POS], t)
+            vc_dot = ca.jacobian(vc, t) + ca.mtimes(ca.jacobian(vc, x[POS]), p_dot)
+        wave_path = aw + ca.mtimes(Jw, p_dot)
+        water_accel = aw + ca.mtimes(Jw, Uw)
+        xdot = m.dynamics(x, u, vc + vw, vc_dot + wave_path, water_accel_ned=water_accel)
+        fn = ca.Function(
+            "truth_xdot_sea",
+            [x, u, t, vw, aw, Jw, Uw],
+            [xdot],
+            ["x", "u", "t", "wave_velocity_ned", "wave_accel_ned", "wave_gradient_ned", "wave_current_ned"],
+            ["xdot"],
+        )
+        self._steppers[key] = fn
+        self._flow_refs = getattr(self, "_flow_refs", []) + [flow]  # keep id() keys valid
+        return fn
+
     def _truth_rk4(
         self, dt: float | ca.SX, substeps: int, flow: FlowField | None
     ) -> tuple[ca.SX, ca.SX, ca.SX, ca.SX]:

@@ -25,6 +25,19 @@ with ``nu_r_dot = nu_dot - nu_c_dot`` and, for a field ``v_c(p, t)`` seen along 
 ``nu_c1_dot = -S(nu_2) nu_c1 + R^T v_c_dot`` (``v_c_dot`` is the flow's rate of change along
 the vehicle's path in {n}; for a current constant in {n} it is zero and this is paper eq. 4).
 
+Waves (Fossen 2021, section 10.3, the relative-velocity form): the water velocity ``v_c`` is the
+current plus the waves' orbital velocity, and the water's own acceleration ``a_w`` (in {n})
+adds the Froude-Krylov force of the pressure field that accelerates it, on the right::
+
+    ... = tau + [rho V R^T a_w; 0]
+
+(``rho V = B / g``, the displaced mass).  With ``nu_r_dot = nu_dot - nu_c_dot`` the total inertial
+forcing of the water on the body is ``(rho V + M_A) a_w`` (Morison's ``C_M = 1 + C_a``).  The body
+(about 0.5 m) is small against the waves (tens of metres), so the water's acceleration is taken
+uniform over it and the wave moments are neglected.  The term is left out (``a_w`` None) for
+the paper's currents: eq. (2) has none, and the double gyre accelerates its water by less than
+1e-3 m/s^2 (a force below 0.01 N).
+
 Every consumer (simulator, every MPC, the estimator) builds on :class:`VehicleModel`.
 """
 
@@ -40,6 +53,7 @@ from auvdock.vehicle.geometry import skew
 from auvdock.vehicle.params import VehicleParams
 from auvdock.vehicle.state import ANG, ETA, NU, NX
 from auvdock.vehicle.thrusters import allocation_matrix
+from auvdock.world.constants import GRAVITY_M_S2
 
 __all__ = [
     "Smtrx",
@@ -210,8 +224,19 @@ class VehicleModel:
         return ca.mtimes(self.rotation(eta).T, flow_ned)
 
     # --- equations of motion ------------------------------------------------------------
-    def accelerations(self, x: Sym, tau: Sym, flow_ned: Sym, flow_ned_dot: Sym) -> tuple[Sym, Sym]:
-        """Body accelerations (nu_dot, nu_r_dot), each (6,), of eq. (2) under wrench ``tau``."""
+    @property
+    def displaced_mass_kg(self) -> float:
+        """rho V = B / g, kg: the mass of the water the vehicle displaces (Froude-Krylov), with
+        standard gravity (the vehicle file's ``weight_N / mass_kg`` need not be g)."""
+        return float(self.params.buoyancy_N) / GRAVITY_M_S2
+
+    def accelerations(
+        self, x: Sym, tau: Sym, flow_ned: Sym, flow_ned_dot: Sym, water_accel_ned: Sym | None = None
+    ) -> tuple[Sym, Sym]:
+        """Body accelerations (nu_dot, nu_r_dot), each (6,), of eq. (2) under wrench ``tau``.
+
+        ``water_accel_ned`` (3,, m/s^2 in {n}): the water's acceleration for the Froude-Krylov
+        force (see the module docstring); None leaves the term out."""
         eta, nu = x[ETA], x[NU]
         R = self.rotation(eta)
         nu_c1 = ca.mtimes(R.T, flow_ned)
@@ -226,23 +251,32 @@ class VehicleModel:
             - self.restoring(eta)
             + ca.mtimes(self.M_A, nu_c_dot)
         )
+        if water_accel_ned is not None:
+            rhs = rhs + ca.vertcat(self.displaced_mass_kg * ca.mtimes(R.T, water_accel_ned), 0, 0, 0)
         nu_dot = ca.mtimes(self.M_inv, rhs)
         return nu_dot, nu_dot - nu_c_dot
 
     def dynamics(
-        self, x: Sym, u: Sym, flow_ned: Sym, flow_ned_dot: Sym | None = None, tau_extra: Sym | None = None
+        self,
+        x: Sym,
+        u: Sym,
+        flow_ned: Sym,
+        flow_ned_dot: Sym | None = None,
+        tau_extra: Sym | None = None,
+        water_accel_ned: Sym | None = None,
     ) -> Sym:
         """State derivative x_dot (12,) of eqs. (1)-(2): truth, Oracle and Naive (flow = 0) models.
 
         ``u``: thrusts (n,) in N; ``flow_ned``: water velocity in {n} (3,) m/s;
         ``flow_ned_dot``: its rate of change along the path (3,) m/s^2, zero if omitted;
         ``tau_extra``: an extra body wrench (6,) [N, N m] (an offset-free MPC's disturbance
-        estimate), zero if omitted.
+        estimate), zero if omitted; ``water_accel_ned``: the water's acceleration (3,) m/s^2 in {n}
+        for the Froude-Krylov force of waves, left out if omitted.
         """
         if flow_ned_dot is None:
             flow_ned_dot = ca.DM.zeros(3)
         tau = self.wrench(u) if tau_extra is None else self.wrench(u) + tau_extra
-        nu_dot, _ = self.accelerations(x, tau, flow_ned, flow_ned_dot)
+        nu_dot, _ = self.accelerations(x, tau, flow_ned, flow_ned_dot, water_accel_ned)
         eta_dot = ca.mtimes(Jeta(x[ETA]), x[NU])
         return ca.vertcat(eta_dot, nu_dot)
 
@@ -271,6 +305,8 @@ class VehicleModel:
 
         * ``"xdot"``: (x[12], u[n], flow_ned[3], flow_ned_dot[3]) -> x_dot[12]
         * ``"xdot_relative"``: (x_r[12], u[n], flow_ned[3]) -> x_r_dot[12]
+        * ``"xdot_sea"``: (x[12], u[n], flow_ned[3], flow_ned_dot[3], water_accel_ned[3]) -> x_dot[12],
+          with the Froude-Krylov force of the water's acceleration (the truth in a sea)
         * ``"accel"``: (x[12], u[n], flow_ned[3], flow_ned_dot[3]) -> (nu_dot[6], nu_r_dot[6])
         * ``"rotation"``: (angles[3] = phi, theta, psi) -> R[3x3], {b} -> {n}
         """
@@ -285,6 +321,15 @@ class VehicleModel:
                     [x, u, vc, vcd],
                     [self.dynamics(x, u, vc, vcd)],
                     ["x", "u", "flow_ned", "flow_ned_dot"],
+                    ["xdot"],
+                )
+            elif name == "xdot_sea":
+                aw = ca.SX.sym("water_accel_ned", 3)
+                f = ca.Function(
+                    "xdot_sea",
+                    [x, u, vc, vcd, aw],
+                    [self.dynamics(x, u, vc, vcd, water_accel_ned=aw)],
+                    ["x", "u", "flow_ned", "flow_ned_dot", "water_accel_ned"],
                     ["xdot"],
                 )
             elif name == "xdot_relative":

@@ -11,12 +11,32 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
 from auvdock.vehicle.state import LIN, NX, POS, YAW
 
-__all__ = ["HeaveDock"]
+__all__ = ["DockMotion", "HeaveDock", "TrackedDock"]
+
+
+class DockMotion(Protocol):
+    """What a controller and the docking rule know of a dock: its motion (NED, m, m/s, s).
+
+    :class:`HeaveDock` (the paper's sinusoid), :class:`TrackedDock` (re-anchored by
+    measurements in ``fly``) and :class:`auvdock.world.wec_dock.WecDock` (a WEC buoy in the sea).
+    """
+
+    @property
+    def heading_rad(self) -> float: ...
+
+    def position(self, t: float | np.ndarray) -> np.ndarray: ...
+
+    def velocity(self, t: float | np.ndarray) -> np.ndarray: ...
+
+    def trajectory(self, t0: float, dt: float, n_steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
+
+    def reference_state(self, t: float | np.ndarray) -> np.ndarray: ...
 
 
 @dataclass(frozen=True)
@@ -76,6 +96,17 @@ class HeaveDock:
         """
         t = t0 + dt * np.arange(n_steps + 1)
         return t, self.position(t), self.velocity(t)
+
+    def pose(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """The dock's 6-DOF pose and twist at t (s).
+
+        Pose: north, east, down (m), roll, pitch, yaw (rad); twist: NED velocity (m/s), rates (rad/s)."""
+        pose = np.zeros(6)
+        pose[0:3] = self.position(t)
+        pose[5] = self.heading_rad
+        twist = np.zeros(6)
+        twist[0:3] = self.velocity(t)
+        return pose, twist
 
     def reference_state(self, t: float | np.ndarray) -> np.ndarray:
         """The dock's state x_W in the vehicle's state layout, shape (..., 12).

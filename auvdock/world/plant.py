@@ -17,6 +17,17 @@ State
 ``x = [x, y, z, phi, theta, psi, u, v, w, p, q, r]`` (12,): position NED (m), ZYX Euler
 angles of {b} in {n} (rad), body-frame velocity over ground (m/s) and body rates (rad/s).
 
+Waves
+-----
+With a ``sea`` (:class:`auvdock.world.waves.WaveComponents`) the water at the vehicle is the
+current plus the waves' orbital velocity, and the water's acceleration adds the Froude-Krylov
+force (:meth:`auvdock.vehicle.Vehicle.sea_stage`).  The step is then the same RK4 (same
+substeps, thrust held) written in numpy, the sea evaluated with numpy at every stage: its
+velocity, its rate of change along the vehicle's path (``du/dt + (grad u) p_dot``) for the
+added-mass term, and the water's acceleration following the current (``du/dt + (grad u) U``,
+linear theory's material acceleration) for the Froude-Krylov term.  Without a sea the step is
+the one CasADi integrator as before, bit for bit.
+
 Free surface
 ------------
 The model has no free surface.  With ``surface=True`` (default) the depth is floored at
@@ -49,6 +60,7 @@ from auvdock.vehicle.state import ANG, LIN, NX
 
 if TYPE_CHECKING:
     from auvdock.world.flow import FlowField
+    from auvdock.world.waves import WaveComponents
 
 __all__ = ["TruthPlant"]
 
@@ -79,6 +91,8 @@ class TruthPlant:
         A step that goes non-finite keeps its non-finite state (the closed loop then ends the
         run as diverged) instead of stopping the vehicle where it was (what a stand-in vehicle
         that must go on answering does).
+    sea : WaveComponents, optional
+        The waves (see Waves); None: currents only.
     """
 
     def __init__(
@@ -91,6 +105,7 @@ class TruthPlant:
         surface: bool = True,
         dt: float | None = None,
         keep_nonfinite: bool = False,
+        sea: WaveComponents | None = None,
     ) -> None:
         x0 = np.array(x0, dtype=float).ravel()
         if x0.shape != (NX,):
@@ -103,10 +118,19 @@ class TruthPlant:
         self.surface = bool(surface)
         self.keep_nonfinite = bool(keep_nonfinite)
         self.dt = None if dt is None else float(dt)
-        self._fixed: ca.Function | None = (
-            None if dt is None else vehicle.stepper(float(dt), self.substeps, flow)
-        )
-        self._any_dt: ca.Function | None = vehicle.stepper_any_dt(self.substeps, flow) if dt is None else None
+        self.sea = sea if sea is not None and sea.n_components > 0 else None
+        self._fixed: ca.Function | None = None
+        self._any_dt: ca.Function | None = None
+        if self.sea is not None:
+            from auvdock.runtime.fastcall import BufferedFunction
+
+            self._sea_stage = BufferedFunction(vehicle.sea_stage(flow))
+            cur = self.sea.current_ned_m_s
+            self._sea_stage.inputs[6][:] = (cur[0], cur[1], 0.0)
+        elif dt is not None:
+            self._fixed = vehicle.stepper(float(dt), self.substeps, flow)
+        else:
+            self._any_dt = vehicle.stepper_any_dt(self.substeps, flow)
         self._x0 = x0.copy()
         self.x = x0.copy()
         self.nu1_dot = np.zeros(3)  # mean d(nu_1)/dt over the last step, m/s^2
@@ -139,7 +163,12 @@ class TruthPlant:
         with sane parameters) keeps the pose and stops the vehicle.  Returns the new state
         (the plant's own array: copy it to keep it).
         """
-        if dt is None or (self.dt is not None and float(dt) == self.dt):
+        if self.sea is not None:
+            h = self.dt if dt is None else float(dt)
+            if h is None or not h > 0:
+                raise ValueError(f"dt: must be positive, got {dt}")
+            x_new = self._sea_rk4(np.asarray(thrust_N, dtype=float), float(t), h)
+        elif dt is None or (self.dt is not None and float(dt) == self.dt):
             if self._fixed is None:
                 raise ValueError("step: no dt given and the plant has no fixed dt")
             h = self.dt
@@ -168,6 +197,39 @@ class TruthPlant:
         self.nu1_dot = (x_new[6:9] - self.x[6:9]) / h
         self.x = x_new
         return self.x
+
+    def water_at(self, x: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The waves at the vehicle in state ``x`` at ``t`` (s): (orbital velocity, rate of change
+        along its path, the water's acceleration), each (3,) NED (m/s, m/s^2); zeros with no sea."""
+        if self.sea is None:
+            z = np.zeros(3)
+            return z, z.copy(), z.copy()
+        kin = self.sea.kinematics(x[0:3], t)
+        p_dot = self.rotation(x) @ x[LIN]
+        J = kin.gradient_ned_1_s
+        a = kin.acceleration_ned_m_s2
+        cur = self.sea.current_ned_m_s
+        return kin.velocity_ned_m_s, a + J @ p_dot, a + J @ np.array([cur[0], cur[1], 0.0])
+
+    def _sea_xdot(self, x: np.ndarray, u: np.ndarray, t: float) -> np.ndarray:
+        assert self.sea is not None
+        kin = self.sea.kinematics(x[0:3], t)
+        vel, acc, grad = kin.velocity_ned_m_s, kin.acceleration_ned_m_s2, kin.gradient_ned_1_s
+        return self._sea_stage(x, u, t, vel, acc, grad)[0]
+
+    def _sea_rk4(self, u: np.ndarray, t: float, h: float) -> np.ndarray:
+        """``substeps`` classical RK4 steps over ``h`` (s) from ``t``, the sea evaluated at each stage
+        (:func:`auvdock.vehicle.model.rk4`'s formula)."""
+        x = self.x.copy()
+        hs = h / self.substeps
+        for i in range(self.substeps):
+            ti = t + i * hs
+            k1 = self._sea_xdot(x, u, ti).copy()
+            k2 = self._sea_xdot(x + hs / 2 * k1, u, ti + hs / 2).copy()
+            k3 = self._sea_xdot(x + hs / 2 * k2, u, ti + hs / 2).copy()
+            k4 = self._sea_xdot(x + hs * k3, u, ti + hs)
+            x = x + hs / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        return x
 
     def place(self, x: np.ndarray | list[float], nu1_dot: np.ndarray | None = None) -> np.ndarray:
         """A step whose motion is prescribed instead of integrated: the vehicle is put at state ``x``
