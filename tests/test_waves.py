@@ -259,3 +259,18 @@ def test_waves_off_is_the_integrator_without_a_sea():
         xa, xb, xc = a.step(u, k * 0.1).copy(), b.step(u, k * 0.1).copy(), c.step(u, k * 0.1).copy()
         np.testing.assert_array_equal(xa, xb)
         np.testing.assert_allclose(xc, xa, atol=1e-12)  # zero-height waves: the same motion (numpy RK4)
+
+
+def test_the_one_point_kinematics_are_the_vectorised_ones():
+    for depth in (30.0, math.inf):
+        rng = np.random.default_rng(1)
+        sea = realise(
+            lambda w: jonswap(w, 2.0, 9.0), 0.3, 4.0, 50, rng,
+            water_depth_m=depth, spread_deg=20.0, n_directions=3, current_ned_m_s=(0.2, 0.1),
+        )  # fmt: skip
+        for p, t in (([3.0, -4.0, 6.0], 7.7), ([0.0, 0.0, -0.3], 1.0), ([10.0, 2.0, 0.0], 0.0)):
+            kin = sea.kinematics(np.array(p), t)
+            v, a, J = sea.kinematics_at(np.array(p), t)
+            np.testing.assert_allclose(v, kin.velocity_ned_m_s, rtol=1e-12, atol=1e-15)
+            np.testing.assert_allclose(a, kin.acceleration_ned_m_s2, rtol=1e-12, atol=1e-15)
+            np.testing.assert_allclose(J, kin.gradient_ned_1_s, rtol=1e-12, atol=1e-15)

@@ -41,7 +41,7 @@ OUTCOME_COLUMNS: dict[str, str] = {
     "error": "str",  # "" for a run that ran
     "attempts": "int",  # 1, or 2 when the first worker died
     "docked": "bool",
-    "reason": "str",  # docked, timeout, diverged or error
+    "reason": "str",  # docked, captured, collided, timeout, diverged or error
     "time_to_dock_s": "float",
     "end_time_s": "float",
     "timeout_s": "float",
@@ -49,6 +49,9 @@ OUTCOME_COLUMNS: dict[str, str] = {
     "path_length_m": "float",
     "closest_approach_m": "float",
     "contact_speed_m_s": "float",
+    "collided": "bool",  # docking.criterion capture: struck the dock's body outside the entry
+    "impact_speed_m_s": "float",  # ... at this speed (NaN otherwise)
+    "contact_what": "str",  # what it touched: back plate, funnel wall, structure face, buoy ("" if nothing)
     "flow_rmse_m_s": "float",
     "flow_final_error_m_s": "float",
     "solve_time_median_s": "float",

@@ -43,12 +43,29 @@ def _summary_table(title: str, outcome: dict[str, Any]) -> Table:
     t.add_column("figure", style="cyan")
     t.add_column("value")
     docked = bool(outcome.get("docked"))
-    t.add_row("docked", "[green]yes[/green]" if docked else f"[red]no[/red] ({outcome.get('reason', '')})")
+    if "captured" in outcome:  # docking.criterion: capture
+        if docked:
+            t.add_row("captured", "[green]yes[/green]")
+        elif outcome.get("collided"):
+            t.add_row(
+                "captured",
+                f"[red]no[/red] (collided with the {outcome.get('contact_what', 'dock')} at "
+                f"{f('impact_speed_m_s', unit=' m/s')})",
+            )
+        else:
+            t.add_row("captured", f"[red]no[/red] ({outcome.get('reason', '')})")
+    else:
+        why = outcome.get("reason", "")
+        t.add_row("docked", "[green]yes[/green]" if docked else f"[red]no[/red] ({why})")
     t.add_row(
         "time to dock",
         f("time_to_dock_s", fmt="{:.2f}", unit=" s")
         if docked
-        else f"timeout {outcome.get('end_time_s', 0):.0f} s",
+        else (
+            f"collided at {outcome.get('end_time_s', 0):.2f} s"
+            if outcome.get("collided")
+            else f"timeout {outcome.get('end_time_s', 0):.0f} s"
+        ),
     )
     t.add_row("path length", f("path_length_m", unit=" m"))
     t.add_row("closest approach", f("closest_approach_m", unit=" m"))

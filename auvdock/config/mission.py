@@ -28,6 +28,7 @@ from pydantic import (
     model_validator,
 )
 
+from auvdock.config.contact import CaptureSpec, DockBodySpec
 from auvdock.config.schema import NonNegFloat, PosFloat, Strict, Vec3, Vec12, first_error, fixed_len
 from auvdock.config.sea import SeaSpec, WecSpec
 from auvdock.config.yamlio import load_yaml_strict
@@ -45,6 +46,7 @@ from auvdock.world.spectra import SpectrumFileError
 
 if TYPE_CHECKING:
     from auvdock.camera.model import CameraMount
+    from auvdock.world.dock_body import CaptureLimits, DockBody, HullBox
     from auvdock.world.waves import WaveComponents
     from auvdock.world.wec_dock import WecDock
 
@@ -208,6 +210,11 @@ class DockSpec(Strict):
         description="the dock hangs below a WEC buoy heaving in the mission's sea (its linear "
         "hydrodynamics); omitted: the paper's sinusoidal heave (dock.heave)",
     )
+    body: DockBodySpec = Field(
+        default_factory=DockBodySpec,
+        description="the docking station's geometry (entry funnel, cradle, back plate, frame), for "
+        "docking.criterion: capture",
+    )
     source: Literal["model", "mavlink", "camera"] = Field(
         default="model",
         description=(
@@ -271,7 +278,15 @@ class StartSpec(Strict):
 class DockingSpec(Strict):
     """When a run ends."""
 
-    tolerance_m: PosFloat = Field(default=0.05, description="docked when within this distance of the dock, m")
+    criterion: Literal["point", "capture"] = Field(
+        default="point",
+        description="point: docked within tolerance_m of the docking point (the paper's); capture: the "
+        "nose inside the dock's cradle, aligned and slow (docking.capture), or collided with its body",
+    )
+    tolerance_m: PosFloat = Field(
+        default=0.05, description="criterion point: docked when within this distance of the dock, m"
+    )
+    capture: CaptureSpec = Field(default_factory=CaptureSpec)
     timeout_s: PosFloat = Field(default=75.0, description="give up after this simulated time, s")
 
 
@@ -576,6 +591,24 @@ class Mission(Strict):
             mooring_stiffness_N_m=w.mooring_stiffness_N_m,
         )
 
+    def build_contact(self, dock: Any = None) -> tuple[DockBody, HullBox, CaptureLimits] | None:
+        """The dock's body, the vehicle's hull and the capture limits (``docking.criterion: capture``),
+        else None.  ``dock``: the built dock (a WEC dock's buoy becomes a solid above the cradle)."""
+        if self.docking.criterion != "capture":
+            return None
+        from auvdock.world.dock_body import HullBox, WecBuoy
+
+        L, W, H = (float(v) for v in self.build_vehicle().params.hull_box_m)
+        hull = HullBox(length_m=L, width_m=W, height_m=H)
+        buoy = None
+        coef = getattr(dock, "coefficients", None)
+        if self.dock.wec is not None and coef is not None:
+            buoy = WecBuoy.above(float(self.dock.position_ned_m[2]), coef.radius_m, coef.draft_m)
+        body = self.dock.body.build(hull, buoy)
+        limits = self.docking.capture.build()
+        limits.check(body, hull)
+        return body, hull, limits
+
     def world_problem(self) -> tuple[str, str] | None:
         """The first impossible setting of the sea and the dock in it, as (field path, problem), or None.
 
@@ -601,11 +634,17 @@ class Mission(Strict):
             return ("sea.waves.file", str(e))
         except ValueError as e:
             return ("sea.waves", str(e))
+        dock: Any = None
         if self.dock.wec is not None:
             try:
-                self.build_dock(realised)
+                dock = self.build_dock(realised)
             except ValueError as e:
                 return ("dock.wec.table", str(e))
+        if self.docking.criterion == "capture":
+            try:
+                self.build_contact(dock)
+            except ValueError as e:
+                return ("dock.body", str(e))
         return None
 
     def start_state(self) -> np.ndarray:

@@ -47,6 +47,7 @@ if TYPE_CHECKING:
     from auvdock.controllers.base import ControlOutput
     from auvdock.controllers.hold import DepthAttitudeHold
     from auvdock.vehicle import Vehicle
+    from auvdock.world.dock_body import Contact
 
 __all__ = [
     "Observation",
@@ -89,6 +90,9 @@ class Observation:
         controllers' ``flow_body_true_m_s`` and the flow-error figures.
     columns : dict
         The plant's own per-step columns (name -> array), declared by ``Plant.columns``.
+    contact : Contact or None
+        The truth's contact with the dock's body (``docking.criterion: capture`` in simulation):
+        captured or collided ends the run.
     """
 
     t: float
@@ -98,6 +102,7 @@ class Observation:
     steer: bool = True
     true_flow_ned: np.ndarray | None = None
     columns: dict[str, np.ndarray] = field(default_factory=dict)
+    contact: Contact | None = None
 
 
 @dataclass
@@ -190,8 +195,9 @@ class LoopEnding(Exception):  # noqa: N818 -- an ending, not an error
 class LoopResult:
     """How a closed loop ended.
 
-    ``reason``: docked, timeout, diverged, or a :class:`LoopEnding`'s; ``t_end`` the last
-    instant, s; ``contact`` the state (12,) in which docking was declared.
+    ``reason``: docked, captured, collided, timeout, diverged, or a :class:`LoopEnding`'s;
+    ``t_end`` the last instant, s; ``contact`` the state (12,) in which docking (or the
+    collision) was declared; ``touch`` the contact with the dock's body that ended the run.
     """
 
     reason: str
@@ -200,6 +206,7 @@ class LoopResult:
     docked: bool = False
     contact: np.ndarray | None = None
     wall_time_s: float = 0.0
+    touch: Contact | None = None
 
 
 @dataclass
@@ -290,6 +297,10 @@ class LoopRecorder:
     keep : bool
         Keep the per-step figures the outcome is computed from (False for a stand-in vehicle
         that runs until stopped: its memory stays flat).
+    capture : bool
+        The run is judged on contact with the dock's body (``docking.criterion: capture``): the
+        outcome has ``captured``, ``collided``, ``impact_speed_m_s``, ``contact_what``,
+        ``contact_point_ned_m`` and ``nose_dock_m``.
     """
 
     def __init__(
@@ -302,6 +313,7 @@ class LoopRecorder:
         plant_columns: dict[str, tuple[int, ...]],
         channels: bool,
         keep: bool = True,
+        capture: bool = False,
     ) -> None:
         self.sinks = list(sinks)
         self.keep = bool(keep)
@@ -310,6 +322,7 @@ class LoopRecorder:
         self.extra_series = dict(extra_series)
         self.plant_columns = dict(plant_columns)
         self.channels = bool(channels)
+        self.capture = bool(capture)
         self.states: list[np.ndarray] = []
         self.distances: list[float] = []
         self.solve_times: list[float] = []
@@ -391,6 +404,27 @@ class LoopRecorder:
             reason=result.reason,
             setup_time_s=setup_time_s,
         )
+        if self.capture:
+            touch = result.touch
+            nan3 = np.full(3, np.nan)
+            collided = touch is not None and touch.status == "collided"
+            outcome.update(
+                captured=bool(result.docked),
+                collided=bool(collided),
+                impact_speed_m_s=math.nan,
+                contact_what="",
+                contact_point_ned_m=nan3,
+                nose_dock_m=nan3,
+            )
+            if touch is not None:
+                outcome.update(
+                    impact_speed_m_s=float(touch.impact_speed_m_s) if collided else math.nan,
+                    contact_what=touch.what,
+                    contact_point_ned_m=np.asarray(touch.contact_point_ned, dtype=float),
+                    nose_dock_m=np.asarray(touch.nose_dock_m, dtype=float),
+                )
+                outcome["contact_speed_m_s"] = float(touch.relative_speed_m_s)
+                outcome["heading_error_rad"] = float(touch.heading_error_rad)
         if self.flow_errors:
             e = np.asarray(self.flow_errors)
             outcome["flow_rmse_m_s"] = float(np.sqrt(np.mean(e**2)))
@@ -497,6 +531,14 @@ def run_closed_loop(
                     result = LoopResult("diverged", f"the state went non-finite at t = {t:.2f} s", t)
                     break
                 dist = float(np.linalg.norm(x[POS] - dock.position(t)))
+                touch = obs.contact
+                if touch is not None and touch.status != "free":
+                    recorder.distances.append(dist)
+                    final(obs, dist)
+                    captured = touch.status == "captured"
+                    what = f"{touch.describe()} at t = {t:.2f} s"
+                    result = LoopResult(touch.status, what, t, captured, x.copy(), touch=touch)
+                    break
                 if tolerance_m is not None and obs.steer and dist <= tolerance_m:  # (not out of sight)
                     recorder.distances.append(dist)
                     final(obs, dist)

@@ -22,6 +22,7 @@ from auvdock.loop.closed_loop import Applied, Observation
 from auvdock.sensing.simulated import SimulatedSensors
 from auvdock.vehicle.actuators import ActuatorCommand
 from auvdock.vehicle.state import POS
+from auvdock.world.dock_body import classify_contact
 from auvdock.world.plant import TruthPlant
 
 if TYPE_CHECKING:
@@ -29,6 +30,7 @@ if TYPE_CHECKING:
     from auvdock.controllers.base import ControlOutput
     from auvdock.vehicle import Vehicle
     from auvdock.world.dock import HeaveDock
+    from auvdock.world.dock_body import CaptureLimits, DockBody, HullBox
     from auvdock.world.flow import FlowField
     from auvdock.world.waves import WaveComponents
     from auvdock.world.wec_dock import WecDock
@@ -61,7 +63,11 @@ class SimulatedPlant:
     sea : WaveComponents, optional
         The realised sea (:meth:`~auvdock.config.mission.Mission.build_sea`); None: currents only.
     dock : HeaveDock or WecDock, optional
-        The true dock (its pose and twist are recorded in a sea).
+        The true dock (its pose and twist are recorded in a sea; its motion places the body).
+    contact : (DockBody, HullBox, CaptureLimits), optional
+        ``docking.criterion: capture`` (:meth:`~auvdock.config.mission.Mission.build_contact`):
+        every observation classifies the truth's contact with the dock's body
+        (:func:`auvdock.world.dock_body.classify_contact`) and records the nose in the dock frame.
     """
 
     columns: dict[str, tuple[int, ...]] = {}
@@ -75,6 +81,7 @@ class SimulatedPlant:
         *,
         sea: WaveComponents | None = None,
         dock: HeaveDock | WecDock | None = None,
+        contact: tuple[DockBody, HullBox, CaptureLimits] | None = None,
     ) -> None:
         self.flow = flow
         self.dt = float(dt)
@@ -89,8 +96,14 @@ class SimulatedPlant:
             keep_nonfinite=True,
             sea=sea,
         )
+        if contact is not None and dock is None:
+            raise ValueError("contact: needs the dock whose body it is")
+        self.contact = contact
+        self.columns = {}
         if sea is not None:
-            self.columns = dict(SEA_COLUMNS)
+            self.columns.update(SEA_COLUMNS)
+        if contact is not None:
+            self.columns["nose_dock_m"] = (3,)
         self.sensors = SimulatedSensors(mission.sensors, mission.estimation, vehicle, mission.seed)
         self._zero = np.zeros(vehicle.n_thrusters)
         self.start()
@@ -125,8 +138,16 @@ class SimulatedPlant:
                     dock_pose=pose,
                     dock_twist=twist,
                 )
+        contact = None
+        if self.contact is not None and self.dock is not None:
+            body, hull, limits = self.contact
+            contact = classify_contact(
+                x, self.dock.position(t), self.dock.velocity(t), body, hull, limits,
+                dock_heading_rad=self.dock.heading_rad,
+            )
+            columns["nose_dock_m"] = contact.nose_dock_m
         readings = self.sensors.read(t, x, self._x_prev, self.dt, self._applied, v_c)
-        return Observation(t, x, v_c, readings, true_flow_ned=v_c, columns=columns)
+        return Observation(t, x, v_c, readings, true_flow_ned=v_c, columns=columns, contact=contact)
 
     def apply(self, t: float, command: ActuatorCommand) -> Applied:
         """Hold the thrust the actuator path produces over the coming period."""

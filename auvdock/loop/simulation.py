@@ -18,6 +18,7 @@ one in which docking is declared, or the last one -- is written as a last row wi
 from __future__ import annotations
 
 import json
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -134,13 +135,14 @@ def simulate(
         sea = mission.build_sea()
         dock = mission.build_dock(sea)
         ap = autopilot or build_autopilot(mission, vehicle, dock, controller)
-        plant = SimulatedPlant(mission, vehicle, flow, ap.dt, sea=sea, dock=dock)
+        contact = mission.build_contact(dock)
+        plant = SimulatedPlant(mission, vehicle, flow, ap.dt, sea=sea, dock=dock, contact=contact)
         actuators = build_actuators(mission.simulation.actuators, vehicle)
     setup_s = time.perf_counter() - t_setup if autopilot is None else ap.build_time_s
     ap.reset()
     dt = ap.dt
     timeout = mission.docking.timeout_s if timeout_s is None else float(timeout_s)
-    tol = mission.docking.tolerance_m
+    tol = mission.docking.tolerance_m if contact is None else None
     recorder = LoopRecorder(
         [],
         vehicle=vehicle,
@@ -148,6 +150,7 @@ def simulate(
         extra_series=ap.extra_series,
         plant_columns=plant.columns,
         channels=actuators.name != "ideal",
+        capture=contact is not None,
     )
     meta: dict[str, Any] = dict(
         mission_yaml=mission.to_yaml(),
@@ -157,7 +160,8 @@ def simulate(
         status_names=STATUS_NAMES,
         n_thrusters=vehicle.n_thrusters,
         attrs={
-            "tolerance_m": tol,
+            "tolerance_m": math.nan if tol is None else tol,
+            "criterion": mission.docking.criterion,
             "timeout_s": timeout,
             "dt_s": dt,
             "flow": flow.describe(),

@@ -140,7 +140,8 @@ def run_figures(
 
     ``name`` is the file name without prefix and ``.png`` (``"trajectory_3d"``, ``"top_view"``,
     ``"distance"``, ``"thrust"``, then ``"flow_estimate"`` and ``"information"`` if the run
-    has those extras).  Parameters and errors as :func:`plot_run`.
+    has those extras, then ``"sea"`` and ``"dock_entry"`` for a run in a sea and one judged on
+    capture: :mod:`auvdock.results.sea_plots`).  Parameters and errors as :func:`plot_run`.
     """
     if results.n_steps == 0:
         where = f"{results.source}:{results.group}" if results.source else "the run"
@@ -156,6 +157,9 @@ def run_figures(
         figures.append(("flow_estimate", _flow_estimate(results)))
     if "information" in ex:
         figures.append(("information", _information(results)))
+    from auvdock.results.sea_plots import sea_figures
+
+    figures.extend(sea_figures(results))
     return figures
 
 

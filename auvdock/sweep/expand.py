@@ -53,7 +53,7 @@ def _flow_updates(sweep: Sweep, base: Mission, values: dict[str, Any], point: in
     """Mission updates for the flow fields of one point (derived and coupled fields)."""
     p = sweep._path or "<sweep>"
     upd: dict[str, Any] = {}
-    derived = [k for k in DERIVED_FIELDS if k in values]
+    derived = [k for k in DERIVED_FIELDS if k in values and k.startswith("flow.")]
     if derived and "flow.velocity_ned_m_s" in values:
         raise SweepError(p, _section(sweep, derived[0]), "vary either it or flow.velocity_ned_m_s, not both")
     base_flow = base.build_flow()
@@ -141,6 +141,12 @@ def _point_mission(
             upd[_HEAVE_PAIR[key]] = None
         upd[key] = value
     data = mission_data(base.with_controller(controller))
+    if "dock.depth_m" in values:
+        depth = values["dock.depth_m"]
+        if isinstance(depth, bool) or not isinstance(depth, int | float) or not depth > 0:
+            raise SweepError(p, _section(sweep, "dock.depth_m"), f"must be a positive number (got {depth!r})")
+        data["dock"]["position_ned_m"][2] = float(depth)
+        data["start"]["state"][2] = float(depth)
     for path, value in upd.items():
         node = data
         keys = path.split(".")
@@ -165,6 +171,10 @@ def _point_mission(
             locs = [f"vehicle.{e.field}", f"vehicle.overrides.{e.field}"]
             where, note = _blame(sweep, values, locs, point)
             raise SweepError(p, where, note + e.message) from None
+    bad = m.world_problem()
+    if bad is not None:
+        where, note = _blame(sweep, values, [bad[0]], point)
+        raise SweepError(p, where, note + bad[1]) from None
     return m
 
 

@@ -35,7 +35,9 @@ __all__ = [
 ]
 
 #: Fields the sweep derives (not in the mission schema), mapped onto the flow.
-DERIVED_FIELDS = ("flow.speed_m_s", "flow.direction_deg")
+#: Fields a sweep derives mission fields from: a constant current's speed and direction (towards,
+#: degrees clockwise from north), and the dock's depth (the vehicle starts at the same depth).
+DERIVED_FIELDS = ("flow.speed_m_s", "flow.direction_deg", "dock.depth_m")
 _FIXED_BY_SWEEP = {"seed": "seeds", "controller.type": "controllers"}
 
 

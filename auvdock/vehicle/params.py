@@ -33,6 +33,10 @@ class VehicleParamsError(ValueError):
         self.message = message
 
 
+#: The BlueROV2 Heavy's outer dimensions, length x width x height (m): a vehicle file's default hull box.
+_HEAVY_HULL_M = np.array([0.457, 0.575, 0.254])
+
+
 @dataclass(frozen=True)
 class VehicleParams:
     """Rigid-body, hydrodynamic and thruster parameters of a 6-DOF vehicle with n thrusters.
@@ -43,7 +47,9 @@ class VehicleParams:
     ``quadratic_damping`` (N s^2/m^2, N m s^2/rad^2); thruster ``positions_m`` (n x 3)
     and unit ``directions`` (n x 3) in {b}; ``thrust_limits_N`` (n x 2, [reverse, forward]);
     ``thruster_gain``, the force the thrusters produce per force commanded (1: the T200 curve
-    as published; optional in a file, default 1; a model-error sweep scales it in the plant).
+    as published; optional in a file, default 1; a model-error sweep scales it in the plant);
+    ``hull_box_m``, the hull as a box (length, width, height, m) centred on the body origin, for
+    contact with a dock (optional in a file; default the BlueROV2 Heavy's 0.457 x 0.575 x 0.254 m).
     The number of thrusters n comes from the file (8 for the Heavy, 6 for the standard frame).
     """
 
@@ -64,6 +70,7 @@ class VehicleParams:
     thrust_limits_N: np.ndarray
     thruster_curve: ThrusterCurve = field(default_factory=ThrusterCurve)
     thruster_gain: float = 1.0
+    hull_box_m: np.ndarray = field(default_factory=lambda: _HEAVY_HULL_M.copy())
     raw: dict[str, Any] = field(repr=False, compare=False, default_factory=dict)
 
     @classmethod
@@ -170,6 +177,7 @@ class VehicleParams:
             thrust_limits_N=lim,
             thruster_curve=curve,
             thruster_gain=num("thruster_gain") if "thruster_gain" in d else 1.0,
+            hull_box_m=vec("hull_box_m", 3, positive=True) if "hull_box_m" in d else _HEAVY_HULL_M.copy(),
             raw=copy.deepcopy(d),
         )
 

@@ -213,8 +213,7 @@ class TruthPlant:
 
     def _sea_xdot(self, x: np.ndarray, u: np.ndarray, t: float) -> np.ndarray:
         assert self.sea is not None
-        kin = self.sea.kinematics(x[0:3], t)
-        vel, acc, grad = kin.velocity_ned_m_s, kin.acceleration_ned_m_s2, kin.gradient_ned_1_s
+        vel, acc, grad = self.sea.kinematics_at(x, t)
         return self._sea_stage(x, u, t, vel, acc, grad)[0]
 
     def _sea_rk4(self, u: np.ndarray, t: float, h: float) -> np.ndarray:

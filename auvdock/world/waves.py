@@ -227,6 +227,9 @@ class WaveComponents:
     _sb: np.ndarray = field(init=False, repr=False, compare=False)
     _as: np.ndarray = field(init=False, repr=False, compare=False)
     _weights: np.ndarray = field(init=False, repr=False, compare=False)
+    _neg_k: np.ndarray = field(init=False, repr=False, compare=False)
+    _c2: np.ndarray | None = field(init=False, repr=False, compare=False)
+    _inv_den: np.ndarray | None = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         arrays = {}
@@ -264,6 +267,13 @@ class WaveComponents:
         object.__setattr__(self, "_sb", np.sin(b))
         object.__setattr__(self, "_as", arrays["amplitude_m"] * sig)
         object.__setattr__(self, "_weights", self._weight_matrix())
+        object.__setattr__(self, "_neg_k", -k)
+        if math.isinf(self.water_depth_m):
+            object.__setattr__(self, "_c2", None)
+            object.__setattr__(self, "_inv_den", None)
+        else:  # e^{-k(2h - d)} = e^{-2kh} / e^{-kd}
+            object.__setattr__(self, "_c2", np.exp(-2.0 * k * self.water_depth_m))
+            object.__setattr__(self, "_inv_den", 1.0 / (1.0 - np.exp(-2.0 * k * self.water_depth_m)))
 
     # --- summary ---------------------------------------------------------------------------
     @property
@@ -343,6 +353,27 @@ class WaveComponents:
             J = J.copy()
             J[..., :, 2] = np.where((p[..., 2] > 0.0)[..., None], J[..., :, 2], 0.0)
         return WaveKinematics(vel, acc, J)
+
+    def kinematics_at(self, p_ned: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`kinematics` at one point ``p_ned`` (3,) m and time ``t`` (s), with the fewest numpy
+        calls (the truth's integrator calls it at every RK4 stage).
+
+        Returns (velocity (3,) m/s, local acceleration (3,) m/s^2, gradient (3, 3) 1/s), NED.
+        """
+        n, e, d = float(p_ned[0]), float(p_ned[1]), float(p_ned[2])
+        th = self._kn * n + self._ke * e + (self.phase_rad - self.omega_rad_s * t)
+        c, s = np.cos(th), np.sin(th)
+        e1 = np.exp(self._neg_k * max(d, 0.0))
+        if self._c2 is None or self._inv_den is None:
+            Fc = Fs = e1
+        else:
+            e2 = self._c2 / e1
+            Fc, Fs = (e1 + e2) * self._inv_den, (e1 - e2) * self._inv_den
+        out = self._weights @ np.concatenate((Fc * c, Fc * s, Fs * c, Fs * s))
+        J = out[6:15].reshape(3, 3)
+        if d <= 0.0:
+            J[:, 2] = 0.0
+        return out[0:3], out[3:6], J
 
     def _weight_matrix(self) -> np.ndarray:
         """(15, 4n): velocity (3), local acceleration (3) and gradient (9, row-major) per point as

@@ -74,6 +74,8 @@ class WecDock:
         self.heading_rad = float(heading_rad)
         self.heave_rao = rao
         self.label = label
+        #: The buoy's coefficients (:class:`auvdock.world.wec_table.HeaveCoefficients`) when built from them.
+        self.coefficients: Any = None
         n, e, _ = self.position_ned_m
         k = sea.wavenumber_rad_m
         b = sea.direction_rad
@@ -102,7 +104,9 @@ class WecDock:
             viscous_damping_N_s_m=viscous_damping_N_s_m,
             mooring_stiffness_N_m=mooring_stiffness_N_m,
         )
-        return cls(sea, position_ned_m, heading_rad, rao, label=f"{coefficients.name} buoy")
+        dock = cls(sea, position_ned_m, heading_rad, rao, label=f"{coefficients.name} buoy")
+        dock.coefficients = coefficients
+        return dock
 
     # --- heave -----------------------------------------------------------------------------
     def _theta(self, t: Any) -> np.ndarray:
