@@ -15,6 +15,7 @@ module             commands
 ``sitl``           sitl-physics
 ``bench``          bench
 ``camera``         markers, calibrate
+``bem``            dock-table
 ``cache``          cache info, cache clear
 =================  ==============================================
 """
@@ -40,7 +41,7 @@ if _MAIN_THREAD:
 
 # the commands are registered in this order (the order of --help)
 # isort: off
-from auvdock.cli import validate, sim, campaign, fly, sitl, bench, camera, cache  # noqa: F401, E402
+from auvdock.cli import validate, sim, campaign, fly, sitl, bench, camera, bem, cache  # noqa: F401, E402
 
 # isort: on
 try:  # typer vendors click since 0.2x; older ones use click itself
