@@ -15,7 +15,7 @@ runner = CliRunner()
 
 COMMANDS = [
     "validate", "missions", "sim", "plot", "compare", "report", "sweep", "fly", "vehicle-sim", "replay",
-    "sitl-physics", "bench", "markers", "calibrate",
+    "sitl-physics", "bench", "markers", "calibrate", "dock-table",
 ]  # fmt: skip
 
 

@@ -97,12 +97,17 @@ class WecDock:
         mooring_stiffness_N_m: float = 0.0,
     ) -> WecDock:
         """The dock below the buoy whose coefficients are ``coefficients``
-        (:class:`auvdock.world.wec_table.HeaveCoefficients`), in ``sea``."""
+        (:class:`auvdock.world.wec_table.HeaveCoefficients`), in ``sea``.
+
+        Components above the table's highest frequency take its short-wave extrapolation
+        (``above="decay"``: the excitation decays as ``e^{-k draft}``; the buoy barely answers
+        them)."""
         rao = coefficients.rao(
             sea.omega_rad_s,
             pto_damping_N_s_m=pto_damping_N_s_m,
             viscous_damping_N_s_m=viscous_damping_N_s_m,
             mooring_stiffness_N_m=mooring_stiffness_N_m,
+            above="decay",
         )
         dock = cls(sea, position_ned_m, heading_rad, rao, label=f"{coefficients.name} buoy")
         dock.coefficients = coefficients

@@ -1,0 +1,70 @@
+"""What Oracle MPC does in the sea missions, before any controller knows about waves.
+
+Oracle is told the true state, the true water velocity at the vehicle (current + orbital, held over
+its horizon) and the dock's true motion; it does not know the water's future motion or the dock's
+body.  For each mission and ``--seeds`` seeds (each seed its own sea and sensor noise) this prints
+captured / collided / timed out, the time to capture, the speed relative to the dock at capture,
+the impact speeds and what was struck.
+
+    python benchmarks/sea_oracle.py [--seeds 10] [--missions basin_regular pacwave_common_10m ...]
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections import Counter
+
+import numpy as np
+
+from auvdock.config.mission import load_mission
+from auvdock.loop.simulation import simulate
+
+MISSIONS = (
+    "basin_regular",
+    "pacwave_common_5m",
+    "pacwave_common_10m",
+    "pacwave_common_10m_current",
+    "pacwave_energetic_10m",
+)
+
+
+def _med(values: list[float]) -> str:
+    return f"{np.median(values):.2f}" if values else "-"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--seeds", type=int, default=10)
+    ap.add_argument("--missions", nargs="+", default=list(MISSIONS))
+    args = ap.parse_args()
+    print(
+        f"{'mission':<28} {'runs':>4} {'capt':>4} {'coll':>4} {'t/o':>4} {'t capt s':>8} "
+        f"{'v capt m/s':>10} {'impact m/s':>10}  struck"
+    )
+    for name in args.missions:
+        base = load_mission(name)
+        captured, collided, timeout = 0, 0, 0
+        t_capture, v_capture, impacts = [], [], []
+        struck: Counter[str] = Counter()
+        for seed in range(args.seeds):
+            o = simulate(base.with_updates(seed=seed)).outcome
+            if o["captured"]:
+                captured += 1
+                t_capture.append(o["time_to_dock_s"])
+                v_capture.append(o["contact_speed_m_s"])
+            elif o["collided"]:
+                collided += 1
+                impacts.append(o["impact_speed_m_s"])
+                struck[o["contact_what"]] += 1
+            else:
+                timeout += 1
+        what = ", ".join(f"{k} {v}" for k, v in struck.most_common())
+        print(
+            f"{name:<28} {args.seeds:>4} {captured:>4} {collided:>4} {timeout:>4} {_med(t_capture):>8} "
+            f"{_med(v_capture):>10} {_med(impacts):>10}  {what}",
+            flush=True,
+        )
+
+
+if __name__ == "__main__":
+    main()

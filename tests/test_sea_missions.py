@@ -1,0 +1,126 @@
+"""The sea in missions and runs: bad input, the WEC dock against analytic facts, capture and collision
+in the closed loop, and the realised sea in the results file."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from auvdock.cli import app
+from auvdock.config.mission import MissionError, load_mission
+from auvdock.loop.simulation import simulate
+from auvdock.results.store import read_run, read_sea
+from auvdock.world.dock import HeaveDock
+from auvdock.world.spectra import jonswap, realise, regular_wave
+from auvdock.world.waves import WaveComponents, wavenumber
+from auvdock.world.wec_dock import WecDock
+from auvdock.world.wec_table import load_heave_table
+
+runner = CliRunner()
+
+
+def _error(mission: str, **changes: object) -> str:
+    m = load_mission(mission)
+    with pytest.raises(MissionError) as e:
+        m.with_updates(**changes)
+    return str(e.value).split(": ", 1)[1]
+
+
+def test_an_impossible_sea_is_one_line_naming_the_field():
+    assert _error("pacwave_common_10m", sea__waves__hs_m=-1.0) == (
+        "sea.waves.hs_m: input should be greater than or equal to 0 (got -1.0)"
+    )
+    assert _error("pacwave_common_10m", sea__waves__tp_s=0.7) == (
+        "sea.waves.tp_s: 0.7 s is below twice the shortest resolvable period 0.5 s "
+        "(10 control periods of 0.05 s)"
+    )
+    assert _error("basin_regular", sea__waves__period_s=0.3) == (
+        "sea.waves.period_s: 0.3 s is below the shortest resolvable period 0.5 s "
+        "(10 control periods of 0.05 s)"
+    )
+    assert _error("pacwave_common_10m", sea__water_depth_m=8.0) == (
+        "sea.water_depth_m: 8 m, but the dock is at 10 m depth"
+    )
+    assert _error("pacwave_common_5m", dock__position_ned_m__2=80.0) == (
+        "sea.water_depth_m: 70 m, but the dock is at 80 m depth"
+    )
+    assert _error("still", dock__wec={"table": "wec_buoy_2m"}) == (
+        "dock.wec: a WEC dock moves with the waves; give sea.waves"
+    )
+
+
+def test_a_spectrum_file_with_the_wrong_columns_exits_2_with_one_line(tmp_path):
+    (tmp_path / "bad.csv").write_text("freq,S\n0.1,1\n0.2,1\n0.3,1\n")
+    (tmp_path / "m.yaml").write_text(
+        "name: m\ndock: {position_ned_m: [3, 0, 10]}\nstart: {state: [0, 0, 10, 0, 0, 0, 0, 0, 0, 0, 0, 0]}\n"
+        "sea: {water_depth_m: 70, waves: {type: spectrum, file: bad.csv}}\n"
+    )
+    res = runner.invoke(app, ["validate", str(tmp_path / "m.yaml")])
+    assert res.exit_code == 2
+    lines = [line for line in res.output.splitlines() if line.strip()]
+    assert len(lines) == 1
+    assert lines[0] == (
+        f"error: {tmp_path / 'm.yaml'}: sea.waves.file: {tmp_path / 'bad.csv'}: columns freq, S; "
+        "expected omega_rad_s,S_m2_s_rad or frequency_hz,S_m2_hz"
+    )
+
+
+def test_one_wave_component_reproduces_the_papers_sinusoid():
+    """A dock that follows the surface (RAO 1) in a regular wave of amplitude A heaves as the paper's
+    z0 + A sin(w t + phase)."""
+    A, f, phase, x_dock = 0.0635, 0.6, 0.4, 2.0
+    w = 2 * math.pi * f
+    k = wavenumber(w, 2.1)[0]
+    sea = regular_wave(2 * A, 1 / f, water_depth_m=2.1, phase_rad=-phase - math.pi / 2 - k * x_dock)
+    wec = WecDock(sea, (x_dock, 0.0, 1.0), 0.0, np.ones(1))
+    paper = HeaveDock((x_dock, 0.0, 1.0), 0.0, A, w, phase)
+    t = np.linspace(0, 20, 1001)
+    np.testing.assert_allclose(wec.position(t), paper.position(t), atol=1e-12)
+    np.testing.assert_allclose(wec.velocity(t), paper.velocity(t), atol=1e-12)
+
+
+def test_the_buoy_heaves_with_the_sea_for_long_waves():
+    """Far above the natural period (3.2 s) the buoy follows the surface: heave significant height ~ Hs,
+    its record in phase with the elevation at the buoy; at the natural period it rises above it."""
+    table = load_heave_table("wec_buoy_2m")
+    for seed in range(3):
+        sea = realise(lambda w: jonswap(w, 1.0, 20.0), 0.15, 0.6, 60, np.random.default_rng(seed))
+        dock = WecDock.from_coefficients(sea, table, (0.0, 0.0, 10.0), 0.0)
+        assert dock.significant_heave_m == pytest.approx(sea.significant_height_m, rel=0.02)
+        t = np.linspace(0, 600, 6001)
+        assert np.corrcoef(dock.heave_up(t), dock.elevation(t))[0, 1] > 0.999
+    tn = table.natural_period_s()
+    resonant = WecDock.from_coefficients(regular_wave(0.2, tn), table, (0, 0, 10.0), 0.0)
+    assert resonant.significant_heave_m > 3 * regular_wave(0.2, tn).significant_height_m
+
+
+def test_the_realised_sea_in_the_results_file_recomputes_the_water(tmp_path):
+    m = load_mission("basin_regular")
+    s = simulate(m, out=tmp_path / "r.h5", timeout_s=3.0)
+    arrays, attrs = read_sea(s.path)
+    sea = WaveComponents.from_arrays(arrays, attrs)
+    r = read_run(s.path)
+    x, t = np.asarray(r.state), np.asarray(r.time_s)
+    recorded = np.asarray(r.extras["wave_velocity_ned_m_s"])
+    np.testing.assert_array_equal(sea.velocity(x[:, 0:3], t), recorded)
+    assert attrs["water_depth_m"] == 2.1
+
+
+@pytest.mark.slow
+def test_oracle_captures_in_the_basin_and_collides_from_the_side():
+    """From in front of the dock the nose enters the cradle; started beside the dock, the vehicle
+    steers straight at the docking point and strikes the structure around the entry."""
+    m = load_mission("basin_regular")
+    front = simulate(m, timeout_s=40.0)
+    assert front.outcome["captured"] and not front.outcome["collided"], front.outcome
+    assert front.outcome["reason"] == "captured"
+    assert front.outcome["contact_speed_m_s"] <= 0.3
+    side = simulate(m.with_updates(start__state=[2.0, -2.5, 1.0, 0, 0, 0, 0, 0, 0, 0, 0, 0]), timeout_s=40.0)
+    o = side.outcome
+    assert o["collided"] and not o["captured"], o
+    assert o["reason"] == "collided"
+    assert o["impact_speed_m_s"] > 0
+    assert o["contact_what"] in ("structure face", "funnel wall")
