@@ -124,3 +124,17 @@ def test_oracle_captures_in_the_basin_and_collides_from_the_side():
     assert o["reason"] == "collided"
     assert o["impact_speed_m_s"] > 0
     assert o["contact_what"] in ("structure face", "funnel wall")
+
+
+def test_validate_prints_the_sea_and_the_docks_body():
+    res = runner.invoke(app, ["validate", "pacwave_common_5m"], env={"COLUMNS": "400"})
+    assert res.exit_code == 0, res.output
+    out = res.output
+    assert "sea: JONSWAP Hs 1.75 m, Tp 9.44 s, gamma 3.3, spread 25 deg: 560 components, Hm0 1.76 m" in out
+    assert "dock: wec_buoy_2m buoy heaving in the sea" in out
+    assert "dock body: entry funnel from a 0.9 m mouth over 0.6 m (half-angle 39.8 deg) into a cradle" in out
+    assert "the buoy above (radius 1 m, draft 2 m)" in out
+    assert "docking: captured with the nose 0.1 m inside the cradle, within 0.086 m of its axis" in out
+    calm = runner.invoke(app, ["validate", "still"], env={"COLUMNS": "400"})
+    assert "sea: no waves" in calm.output
+    assert "docking: within 0.05 m of the docking point (criterion point)" in calm.output

@@ -81,6 +81,28 @@ def validate(
         )
     else:
         console.print(f"dock: {dock.describe()}", markup=False, highlight=False)
+    contact = m.build_contact(dock)
+    if contact is None:
+        console.print(f"docking: within {m.docking.tolerance_m:g} m of the docking point (criterion point)")
+    else:
+        body, hull, limits = contact
+        lines = [
+            f"dock body: entry funnel from a {body.mouth_radius_m:g} m mouth over {body.funnel_length_m:g} m "
+            f"(half-angle {body.half_angle_deg:.1f} deg) into a cradle of radius {body.cradle_radius_m:g} m, "
+            f"{body.cradle_depth_m:g} m deep, back plate {body.back_x_m:.3f} m ahead of the docking point, "
+            f"frame {2 * body.structure_half_width_m:g} m square"
+            + ("" if body.buoy is None else f"; the buoy above (radius {body.buoy.radius_m:g} m")
+            + ("" if body.buoy is None else f", draft {body.buoy.draft_m:g} m)"),
+            f"vehicle hull: box {hull.length_m:g} x {hull.width_m:g} x {hull.height_m:g} m",
+            f"docking: captured with the nose {limits.nose_inside_depth_m:g} m inside the cradle, within "
+            f"{limits.radial_offset_limit_m(body, hull):.3f} m of its axis, heading within "
+            f"{limits.max_heading_error_deg:g} deg, pitch and roll within "
+            f"{limits.max_pitch_roll_error_deg:g} deg, "
+            f"slower than {limits.max_relative_speed_m_s:g} m/s relative to the dock; collided: any hull "
+            "point inside the dock's structure (criterion capture)",
+        ]
+        for line in lines:
+            console.print(line, markup=False, highlight=False)
     console.print("[green]valid[/green]")
 
 
