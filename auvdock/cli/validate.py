@@ -101,8 +101,8 @@ def validate(
             f"slower than {limits.max_relative_speed_m_s:g} m/s relative to the dock; collided: any hull "
             "point inside the dock's structure (criterion capture)",
         ]
-        for line in lines:
-            console.print(line, markup=False, highlight=False)
+        for text in lines:
+            console.print(text, markup=False, highlight=False)
     console.print("[green]valid[/green]")
 
 

@@ -374,9 +374,10 @@ class SitlPhysics:
                     f"ArduSub's VECTORED_6DOF frame (the BlueROV2 Heavy), {N_MOTORS} thrusters"
                 )
             self.flow = mission.build_flow()
-            self.dock = mission.build_dock()
+            self.sea = mission.build_sea()  # the waves act on the vehicle here as in sim
+            self.dock = mission.build_dock(self.sea)
             self.plant = TruthPlant(
-                self.vehicle, self.flow, mission.start_state(), substeps=n_sub, surface=surface
+                self.vehicle, self.flow, mission.start_state(), substeps=n_sub, surface=surface, sea=self.sea
             )
         self._x_start = mission.start_state().astype(float)
         self._dock_offset = np.array(dock_offset_ned_m, dtype=float).reshape(3)

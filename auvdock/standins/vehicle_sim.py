@@ -240,7 +240,8 @@ class VehicleSim:
         with SigintDeferred():
             self.vehicle = mission.build_vehicle()
             self.flow = mission.build_flow()
-            self._dock = mission.build_dock()  # the true dock (recorded; no verdict here)
+            self.sea = mission.build_sea()  # the waves act on the vehicle here as in sim
+            self._dock = mission.build_dock(self.sea)  # the true dock (recorded; no verdict here)
             self._plant = TruthPlant(
                 self.vehicle,
                 self.flow,
@@ -248,6 +249,7 @@ class VehicleSim:
                 substeps=n_sub,
                 surface=self.surface,
                 dt=self.dt,
+                sea=self.sea,
             )
         # each sensor's errors, defined once (auvdock.sensing.errors); the constant biases of this
         # run are drawn whether or not noise is on (same seed, same stream)
