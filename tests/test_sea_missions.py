@@ -138,3 +138,22 @@ def test_validate_prints_the_sea_and_the_docks_body():
     calm = runner.invoke(app, ["validate", "still"], env={"COLUMNS": "400"})
     assert "sea: no waves" in calm.output
     assert "docking: within 0.05 m of the docking point (criterion point)" in calm.output
+
+
+def test_the_buoys_heave_amplitudes_are_rayleigh_distributed():
+    """A narrow-band heave (S_z = |RAO|^2 S_eta): crest heights of its cycles are Rayleigh with the
+    heave's standard deviation s, P(A > x) = exp(-x^2 / 2 s^2): median s sqrt(2 ln 2), and 1 crest in
+    10 above s sqrt(2 ln 10)."""
+    table = load_heave_table("wec_buoy_2m")
+    crests = []
+    for seed in range(4):
+        sea = realise(lambda w: jonswap(w, 1.5, 10.0, 5.0), 0.3, 2.0, 200, np.random.default_rng(seed))
+        dock = WecDock.from_coefficients(sea, table, (0.0, 0.0, 10.0), 0.0, viscous_damping_N_s_m=3300.0)
+        t = np.arange(0.0, 3600.0, 0.1)
+        z = dock.heave_up(t)
+        up = np.flatnonzero((z[:-1] < 0) & (z[1:] >= 0))  # zero up-crossings: one cycle each
+        crests += [float(z[a:b].max()) / np.std(z) for a, b in zip(up[:-1], up[1:], strict=True)]
+    crests_a = np.array(crests)
+    assert crests_a.size > 1000
+    assert np.median(crests_a) == pytest.approx(math.sqrt(2 * math.log(2)), rel=0.08)
+    assert np.mean(crests_a > math.sqrt(2 * math.log(10))) == pytest.approx(0.1, abs=0.03)
