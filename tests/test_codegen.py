@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -24,12 +25,15 @@ def cache(tmp_path, monkeypatch):
     return tmp_path / "cache" / "solvers"
 
 
+QUICK_CFLAGS = ("-O0", "-fPIC", "-shared")
+
+
 @pytest.fixture
 def quick(monkeypatch):
     """-O0 for the tests of the cache's mechanics (what is built, kept, rebuilt): the generated C
     compiles in about 5 s instead of 23 s; the flags are part of the cache key, so nothing mixes.
     The claim about the shipped flags (same bits as uncompiled) keeps them."""
-    monkeypatch.setattr(codegen, "CFLAGS", ("-O0", "-fPIC", "-shared"))
+    monkeypatch.setattr(codegen, "CFLAGS", QUICK_CFLAGS)
 
 
 def _small(**updates):
@@ -44,13 +48,69 @@ def _first_move(c, m) -> np.ndarray:
     return c.mpc.solve(0.0, m.start_state(), np.zeros(8), np.array([0.5, 0.5, 0.0])).thrust
 
 
+def _oracle(m, v, d):
+    return build_controller(m.with_controller("oracle").controller, v, d)
+
+
+# Compiling is most of these tests' time, so what several tests need is compiled once per module
+# (each test that changes a cache works on its own copy): the small problem at the quick flags
+# into a fresh cache, and the auto mode's first use at the shipped flags.
+
+
+@pytest.fixture(scope="module")
+def quick_build(tmp_path_factory):
+    """The small problem's first build into an empty cache at the quick flags (wait mode):
+    (its cache's ``solvers`` folder, the build's ``mpc.build``)."""
+    if codegen.find_compiler() is None:
+        pytest.skip("no C compiler")
+    root = tmp_path_factory.mktemp("quick_cache")
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("AUVDOCK_COMPILE", "wait")
+        mp.setenv("AUVDOCK_CACHE_DIR", str(root))
+        mp.setattr(codegen, "CFLAGS", QUICK_CFLAGS)
+        build = _oracle(*_small()).mpc.build
+    return root / "solvers", build
+
+
+@pytest.fixture(scope="module")
+def auto_first_use(tmp_path_factory) -> dict:
+    """The auto mode's first use of the small problem, into an empty cache at the shipped flags:
+    a first build (uncompiled, compiling in the background), a second one while that compiles,
+    the wait for the background builds, and a build after them; what each saw, and the first
+    move of the first and the last build."""
+    if codegen.find_compiler() is None:
+        pytest.skip("no C compiler")
+    root = tmp_path_factory.mktemp("auto_cache")
+    notices: list[str] = []
+    seen: dict = {"cache": root / "solvers"}
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("AUVDOCK_COMPILE", "auto")
+        mp.setenv("AUVDOCK_CACHE_DIR", str(root))
+        mp.setattr(codegen, "_notifier", notices.append)
+        m, v, d = _small()
+        seen["c1"] = c1 = _oracle(m, v, d)
+        seen["notices_after_first"] = sorted(notices)
+        seen["second_build"] = _oracle(m, v, d).mpc.build
+        seen["notices_after_second"] = len(notices)
+        seen["waited"] = codegen.wait_for_background(timeout_s=600)
+        seen["returncodes"] = [p.returncode for p in codegen.background_builds()]
+        seen["so"] = sorted(p.name for p in seen["cache"].glob("*.so"))
+        seen["building"] = sorted(p.name for p in seen["cache"].glob("*.building"))
+        seen["c3"] = c3 = _oracle(m, v, d)
+        seen["first_moves"] = (_first_move(c1, m), _first_move(c3, m))
+        seen["cflags"] = codegen.CFLAGS
+    return seen
+
+
 @pytest.mark.slow
-def test_build_once_then_load_and_same_answer(cache, quick, monkeypatch) -> None:
-    m, v, d = _small()
-    c1 = build_controller(m.with_controller("oracle").controller, v, d)
-    assert c1.mpc.build == "compiled"
+def test_build_once_then_load_and_same_answer(quick_build, quick, monkeypatch) -> None:
+    cache, first_build = quick_build
+    assert first_build == "compiled"
     # the RTI's QP data and the offset-free observer's one-step model
     assert sorted(p.name.split("-")[0] for p in cache.glob("*.so")) == ["mpc_model_step", "rti_qp_data"]
+    monkeypatch.setenv("AUVDOCK_COMPILE", "wait")
+    monkeypatch.setenv("AUVDOCK_CACHE_DIR", str(cache.parent))
+    m, v, d = _small()
     c2 = build_controller(m.with_controller("oracle").controller, v, d)
     assert c2.mpc.build == "cache"
     # the compiled solver gives the uncompiled one's answer
@@ -62,9 +122,10 @@ def test_build_once_then_load_and_same_answer(cache, quick, monkeypatch) -> None
 
 
 @pytest.mark.slow
-def test_changed_parameter_builds_anew(cache, quick) -> None:
+def test_changed_parameter_builds_anew(cache, quick, quick_build) -> None:
+    shutil.copytree(quick_build[0], cache)  # the problem built once (a copy: this test adds to it)
     m, v, d = _small()
-    assert build_controller(m.with_controller("oracle").controller, v, d).mpc.build == "compiled"
+    assert build_controller(m.with_controller("oracle").controller, v, d).mpc.build == "cache"
     m2, v2, d2 = _small(**{"controller.weights.R": 20.0})
     assert build_controller(m2.with_controller("oracle").controller, v2, d2).mpc.build == "compiled"
     assert len(list(cache.glob("rti_qp_data-*.so"))) == 2  # the model step did not change
@@ -75,9 +136,9 @@ def test_changed_parameter_builds_anew(cache, quick) -> None:
 
 
 @pytest.mark.slow
-def test_corrupted_cache_file_is_rebuilt_with_a_warning(cache, quick) -> None:
+def test_corrupted_cache_file_is_rebuilt_with_a_warning(cache, quick, quick_build) -> None:
+    shutil.copytree(quick_build[0], cache)  # the problem built once (a copy: this test breaks it)
     m, v, d = _small()
-    build_controller(m.with_controller("oracle").controller, v, d)
     (so,) = cache.glob("rti_qp_data-*.so")
     so.write_bytes(b"not a shared library")
     with pytest.warns(UserWarning, match="does not load"):
@@ -110,47 +171,39 @@ def test_compile_notice_is_plain_lines_when_redirected(capsys) -> None:
 
 
 @pytest.mark.slow
-def test_auto_mode_runs_uncompiled_and_compiles_in_the_background(cache, monkeypatch) -> None:
+def test_auto_mode_runs_uncompiled_and_compiles_in_the_background(auto_first_use) -> None:
     """First use never waits: the uncompiled function runs, a detached process builds the library
     (one notice), and the next build loads it.  Both give the same bits, so a run's results do not
     depend on the state of the cache."""
-    monkeypatch.setenv("AUVDOCK_COMPILE", "auto")
-    notices: list[str] = []
-    monkeypatch.setattr(codegen, "_notifier", notices.append)
-    m, v, d = _small()
-    c1 = build_controller(m.with_controller("oracle").controller, v, d)
-    assert c1.mpc.build == "uncompiled"
-    assert sorted(notices) == [
-        f"compiling {name} in the background for later runs (cached in {cache}); "
+    seen = auto_first_use
+    assert seen["c1"].mpc.build == "uncompiled"
+    assert seen["notices_after_first"] == [
+        f"compiling {name} in the background for later runs (cached in {seen['cache']}); "
         "this run evaluates it uncompiled, with the same results"
         for name in ("mpc_model_step", "rti_qp_data")
     ]
     # a second build while the first compiles neither waits nor starts another one
-    c2 = build_controller(m.with_controller("oracle").controller, v, d)
-    assert c2.mpc.build in ("uncompiled", "cache") and len(notices) == 2
-    assert codegen.wait_for_background(timeout_s=600)
-    assert all(p.returncode == 0 for p in codegen.background_builds())
-    assert len(list(cache.glob("*.so"))) == 2 and not list(cache.glob("*.building"))
-    c3 = build_controller(m.with_controller("oracle").controller, v, d)
-    assert c3.mpc.build == "cache"
-    assert np.array_equal(_first_move(c1, m), _first_move(c3, m))
+    assert seen["second_build"] in ("uncompiled", "cache") and seen["notices_after_second"] == 2
+    assert seen["waited"]
+    assert all(code == 0 for code in seen["returncodes"])
+    assert len(seen["so"]) == 2 and not seen["building"]
+    assert seen["c3"].mpc.build == "cache"
+    uncompiled, loaded = seen["first_moves"]
+    assert np.array_equal(uncompiled, loaded)
 
 
 @pytest.mark.slow
-def test_compiled_and_uncompiled_functions_give_the_same_bits(cache) -> None:
-    """The claim the background compile rests on, on the MPC's own QP data (the largest function)."""
+def test_compiled_and_uncompiled_functions_give_the_same_bits(auto_first_use) -> None:
+    """The claim the background compile rests on, on the MPC's own QP data (the largest function):
+    the library the auto mode's first use built at the shipped flags, loaded from the cache,
+    against the uncompiled function that first use evaluated."""
     import casadi as ca
 
-    m, v, d = _small()
-    c = build_controller(m.with_controller("oracle").controller, v, d)
+    assert auto_first_use["cflags"] == codegen.CFLAGS  # built at the shipped flags
+    c, c_plain = auto_first_use["c3"], auto_first_use["c1"]
     compiled = c.mpc._solver._rti._data
-    assert c.mpc.build == "compiled"
-    monkeypatch_env = pytest.MonkeyPatch()
-    monkeypatch_env.setenv("AUVDOCK_COMPILE", "never")
-    try:
-        plain = build_controller(m.with_controller("oracle").controller, v, d).mpc._solver._rti._data
-    finally:
-        monkeypatch_env.undo()
+    assert c.mpc.build == "cache" and c_plain.mpc.build == "uncompiled"
+    plain = c_plain.mpc._solver._rti._data
     assert isinstance(plain, ca.Function)
     rng = np.random.default_rng(7)
     for _ in range(20):

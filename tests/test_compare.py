@@ -306,7 +306,10 @@ def _alive(pid: int) -> bool:
 
 @pytest.mark.slow
 def test_ctrl_c_subprocess_exits_130_and_resume_finishes(tmp_path) -> None:
-    args = ["compare", *FOUR, "-c", "oracle,naive", "--timeout", "40", "--jobs", "2", "--out", str(tmp_path)]
+    # 10 s runs (about 2 s each): when the first has finished, six are still to start, several
+    # seconds of work for the two workers, so the SIGINT lands while the campaign runs (as the
+    # kill -9 test below, with 4 s runs); no run docks by then, which this test does not need
+    args = ["compare", *FOUR, "-c", "oracle,naive", "--timeout", "10", "--jobs", "2", "--out", str(tmp_path)]
     p = _driver([*args, "--no-plots"], tmp_path)
     lines: list[str] = []
     _wait_for_finished_run(p, lines)

@@ -175,7 +175,9 @@ def _interrupt(p: subprocess.Popen) -> tuple[int, str]:
 
 
 def test_compare_started_with_sigint_ignored_stops_on_sigint(tmp_path) -> None:
-    args = ["compare", "still", "diagonal", "south", "east_strong", "-c", "oracle,naive", "--timeout", "40"]
+    # 10 s runs (about 2 s each): when the first has finished, six are still to start, so the
+    # SIGINT lands while the campaign runs; no run needs to dock
+    args = ["compare", "still", "diagonal", "south", "east_strong", "-c", "oracle,naive", "--timeout", "10"]
     p = _started_ignoring_sigint([*args, "--jobs", "2", "--out", str(tmp_path), "--no-plots"], tmp_path)
     lines: list[str] = []
     _read_until(p, r"(docked|timeout) [\d.]+ s\s+\(wall", lines)  # a run has finished: workers are busy

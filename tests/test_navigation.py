@@ -17,6 +17,7 @@ from auvdock.estimation.navigation_filter import (
     NavigationFilter,
     NavigationSettings,
 )
+from auvdock.runtime.fastcall import BufferedFunction
 from auvdock.sensing import measurements as ms
 from auvdock.sensing.readings import Reading
 from auvdock.sensing.settings import SensorSettings
@@ -38,20 +39,54 @@ def vehicle():
 ZERO3 = np.zeros(3)
 
 
+class Measure:
+    """``ms.measure(kind, vehicle, x, u, flow_ned)``, the same functions on preallocated buffers
+    (:class:`~auvdock.runtime.fastcall.BufferedFunction`): the same values, bit for bit, without
+    converting every argument to a CasADi matrix at each of a run's thousands of readings."""
+
+    def __init__(self, vehicle) -> None:
+        self.vehicle = vehicle
+        self._fns: dict[str, BufferedFunction] = {}
+
+    def __call__(self, kind: str, x: np.ndarray, u: np.ndarray, flow_ned: np.ndarray) -> np.ndarray:
+        fn = self._fns.get(kind)
+        if fn is None:
+            h = ms.h(kind, self.vehicle)
+            assert h.nnz_out(0) == h.numel_out(0)  # dense: the buffer is the whole reading
+            fn = self._fns[kind] = BufferedFunction(h)
+        return fn(x, u, flow_ned)[0].copy()
+
+
+def buffered_step(step):
+    """A truth step ``(x, u, a) -> x_next`` (a CasADi Function) on preallocated buffers: same values."""
+    fn = BufferedFunction(step)
+    return lambda x, u, a: fn(x, u, a)[0].copy()
+
+
+# (id(vehicle), t) -> (vehicle, thrust): the vehicle kept so that its id() stays its own
+_THRUST: dict[tuple[int, float], tuple[object, np.ndarray]] = {}
+
+
 def thrust(vehicle, t):
-    """Surge, sway, depth-holding heave and a slow yaw moment: the vehicle moves and turns."""
-    tau = np.array(
-        [12 + 6 * np.sin(0.3 * t), 4 * np.cos(0.2 * t), 2.0 + np.sin(0.5 * t), 0, 0, 0.6 * np.sin(0.15 * t)]
-    )
-    u, *_ = np.linalg.lstsq(vehicle.allocation, tau, rcond=None)
-    return np.clip(u, vehicle.thrust_min, vehicle.thrust_max)
+    """Surge, sway, depth-holding heave and a slow yaw moment: the vehicle moves and turns.
+
+    The profile depends on the time only: solved once per vehicle and instant, not again for
+    every seed of a run over seeds."""
+    key = (id(vehicle), t)
+    if key not in _THRUST:
+        surge, sway, heave = 12 + 6 * np.sin(0.3 * t), 4 * np.cos(0.2 * t), 2.0 + np.sin(0.5 * t)
+        tau = np.array([surge, sway, heave, 0, 0, 0.6 * np.sin(0.15 * t)])
+        u, *_ = np.linalg.lstsq(vehicle.allocation, tau, rcond=None)
+        _THRUST[key] = (vehicle, np.clip(u, vehicle.thrust_min, vehicle.thrust_max))
+    return _THRUST[key][1].copy()
 
 
 def run(seed, truth, model, settings, T=30.0, dvl=False, current=CURRENT, bias_a=ZERO3, bias_g=ZERO3):
     """Simulate; rows (t, error z_true - z_hat (NZ,), NEES, estimate); IMU biases in the readings."""
     rng = np.random.default_rng(seed)
     flow = ConstantCurrent(*current)
-    step = truth.stepper(DT, 4, flow)
+    step = buffered_step(truth.stepper(DT, 4, flow))
+    measure = Measure(truth)
     vc = np.array([current[0], current[1], 0.0])
     x = np.zeros(NX)
     x[2] = 5.0
@@ -62,12 +97,12 @@ def run(seed, truth, model, settings, T=30.0, dvl=False, current=CURRENT, bias_a
     for k in range(int(round(T / DT)) + 1):
         t = k * DT
         if k > 0:
-            x = np.asarray(step(x, u, t - DT)).ravel()
+            x = step(x, u, t - DT)
         kinds = ["attitude", "gyro", "accel", "depth"] + (["position"] if k % 10 == 0 else [])
         kinds += ["dvl"] if dvl else []
         readings = []
         for kind in kinds:
-            y = ms.measure(kind, truth, x, u, vc)
+            y = measure(kind, x, u, vc)
             noisy = y + rng.normal(size=y.shape) * STD[kind]
             noisy = noisy + (bias_a if kind == "accel" else bias_g if kind == "gyro" else 0.0)
             readings.append(Reading(kind, t, noisy, np.full(y.shape, STD[kind])))
@@ -126,6 +161,7 @@ def _process_truth_run(vehicle, truth_step, seed, settings, T, every):
         "depth": np.array([suite.depth.std_m]),
         "position": np.full(3, suite.position.figures()[2]),
     }
+    measure = Measure(vehicle)
     nav = NavigationFilter(settings, vehicle, DT)
     x0 = np.zeros(NX)
     x0[2] = 5.0
@@ -137,12 +173,12 @@ def _process_truth_run(vehicle, truth_step, seed, settings, T, every):
     for k in range(int(round(T / DT)) + 1):
         t = k * DT
         if k > 0:
-            z[0:NX] = np.asarray(truth_step(z[0:NX], u, z[NX : NX + 2])).ravel()
+            z[0:NX] = truth_step(z[0:NX], u, z[NX : NX + 2])
             z += w_std * rng.standard_normal(NZ)
         vc = np.array([z[NX], z[NX + 1], 0.0])
         readings = []
         for kind in ["attitude", "gyro", "accel", "depth"] + (["position"] if k % 3 == 0 else []):
-            y = ms.measure(kind, vehicle, z[0:NX], u, vc)
+            y = measure(kind, z[0:NX], u, vc)
             y = y + (z[NX + 2 : NX + 5] if kind == "accel" else z[NX + 5 : NZ] if kind == "gyro" else 0.0)
             readings.append(Reading(kind, t, y + std[kind] * rng.standard_normal(y.shape), std[kind]))
         nav.step(t, readings, u)
@@ -164,7 +200,7 @@ def truth_step(vehicle):
 
     x, u, vc = ca.SX.sym("x", NX), ca.SX.sym("u", vehicle.n_thrusters), ca.SX.sym("vc", 2)
     f = lambda xx: vehicle.model.dynamics(xx, u, ca.vertcat(vc, 0), ca.DM.zeros(3))  # noqa: E731
-    return ca.Function("truth", [x, u, vc], [rk4(f, x, DT, 4)])
+    return buffered_step(ca.Function("truth", [x, u, vc], [rk4(f, x, DT, 4)]))
 
 
 @pytest.mark.slow

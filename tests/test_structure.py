@@ -100,9 +100,10 @@ def test_shipped_missions_are_in_the_package() -> None:
 def test_plain_install_runs_shipped_missions_from_any_folder(tmp_path: Path) -> None:
     """``pip install .`` (not editable) into a fresh venv, then from another folder
     ``auvdock missions`` lists them and ``auvdock sim gyre`` docks.  The venv sees this
-    machine's packages (no network needed); auvdock itself comes from the install."""
+    machine's packages (no network needed), pip among them (so the venv gets no copy of its
+    own: ensurepip takes about 8 s); auvdock itself comes from the install."""
     env_dir = tmp_path / "venv"
-    venv.create(env_dir, system_site_packages=True, with_pip=True)
+    venv.create(env_dir, system_site_packages=True, with_pip=False)
     py = env_dir / "bin" / "python"
     build = tmp_path / "src"  # a copy, so the install does not write into the checkout
     subprocess.run(

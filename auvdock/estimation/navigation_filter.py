@@ -45,6 +45,7 @@ is available and ``$AUVDOCK_COMPILE`` is not ``never`` (:func:`auvdock.runtime.c
 from __future__ import annotations
 
 import math
+import weakref
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -239,6 +240,21 @@ def _second_order_covariance(f: ca.SX, z: ca.SX, P: ca.SX, h: float | ca.SX, n: 
     return dP
 
 
+# per vehicle, (substeps, second order) -> its three functions: building them takes about 0.2 s,
+# and a vehicle's filters share them (a filter evaluates them on buffers of its own)
+_FUNCTIONS: weakref.WeakKeyDictionary[Vehicle, dict[tuple[int, bool], tuple[ca.Function, ...]]]
+_FUNCTIONS = weakref.WeakKeyDictionary()
+
+
+def _step_functions(vehicle: Vehicle, substeps: int, second_order: bool) -> tuple[ca.Function, ...]:
+    """:func:`_step_function`, built once per vehicle and settings."""
+    per_vehicle = _FUNCTIONS.setdefault(vehicle, {})
+    key = (int(substeps), bool(second_order))
+    if key not in per_vehicle:
+        per_vehicle[key] = _step_function(vehicle, *key)
+    return per_vehicle[key]
+
+
 def _step_function(
     vehicle: Vehicle, substeps: int, second_order: bool = True
 ) -> tuple[ca.Function, ca.Function, ca.Function]:
@@ -312,7 +328,7 @@ class NavigationFilter:
         self.settings = settings
         self.vehicle = vehicle
         self.dt = float(dt)
-        meas, curv, fn = _step_function(vehicle, settings.substeps, settings.second_order_prediction)
+        meas, curv, fn = _step_functions(vehicle, settings.substeps, settings.second_order_prediction)
         self._fn, self.build = compiled_function(fn)
         self._meas, _ = compiled_function(meas)
         assert all(self._fn.sparsity_out(i).is_dense() for i in range(4))

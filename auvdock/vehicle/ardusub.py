@@ -27,6 +27,8 @@ controller's eight thrusts (six channels cannot set eight thrusts, only their wr
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from auvdock.vehicle.thrusters import (
@@ -80,16 +82,34 @@ _RAW = np.array(
 MOTOR_FACTORS = _RAW[:, [1, 0, 3, 2, 4, 5]]
 _VERTICAL = (0, 1, 2)  # pitch, roll, throttle: the "rpt" group
 _HORIZONTAL = (3, 4, 5)  # yaw, forward, lateral: the "yfl" group
+# the groups' factor columns, cut once (C-contiguous, as the fancy indexing made them)
+_F_VERTICAL = np.ascontiguousarray(MOTOR_FACTORS[:, _VERTICAL])
+_F_HORIZONTAL = np.ascontiguousarray(MOTOR_FACTORS[:, _HORIZONTAL])
+# for rows of inputs: the factors transposed (6, 8); the horizontal group drives motors 0-3 and
+# the vertical group motors 4-7, each motor's factors being zero in the other group
+_F_T = np.ascontiguousarray(MOTOR_FACTORS.T)
+assert not np.any(MOTOR_FACTORS[:4, list(_VERTICAL)]) and not np.any(MOTOR_FACTORS[4:, list(_HORIZONTAL)])
 
 
 def mix(inputs: np.ndarray) -> np.ndarray:
     """ArduSub's VECTORED_6DOF mixer: six inputs in [-1, 1] (CHANNELS order) -> 8 motor commands."""
     c = np.clip(np.asarray(inputs, dtype=float), -1.0, 1.0)
-    rpt = MOTOR_FACTORS[:, _VERTICAL] @ c[list(_VERTICAL)]
-    yfl = MOTOR_FACTORS[:, _HORIZONTAL] @ c[list(_HORIZONTAL)]
+    rpt = _F_VERTICAL @ c[:3]
+    yfl = _F_HORIZONTAL @ c[3:]
     rpt_max = max(1.0, float(np.max(np.abs(rpt))))
     yfl_max = max(1.0, float(np.max(np.abs(yfl))))
     return np.clip(rpt / rpt_max + yfl / yfl_max, -1.0, 1.0)
+
+
+def _mix_rows(c: np.ndarray) -> np.ndarray:
+    """:func:`mix` of rows of inputs (k, 6) already in [-1, 1] -> (k, 8) motor commands, the same bits.
+
+    Each motor's sum runs over the inputs in order (three +-1 factors, the rest zero: the same
+    sum as the mixer's), whatever the number of rows; motors 0-3 are the "yfl" group, 4-7 "rpt".
+    """
+    g = (c[:, :, None] * _F_T).sum(axis=1).reshape(-1, 2, 4)
+    g_max = np.maximum(np.abs(g).max(axis=2, keepdims=True), 1.0)
+    return np.minimum(np.maximum(g / g_max, -1.0), 1.0).reshape(-1, 8)
 
 
 def motor_pwm(commands: np.ndarray) -> np.ndarray:
@@ -104,6 +124,10 @@ def thrust_from_channels(channels_us: np.ndarray, curve: ThrusterCurve = T200) -
     c = (np.asarray(channels_us, dtype=float) - PWM_NEUTRAL_US) / PWM_PER_UNIT
     pwm = motor_pwm(mix(c))
     return curve.force(2 * PWM_NEUTRAL_US - pwm)
+
+
+#: the line search's step sizes: the Newton step, halved up to 11 times
+_STEP_SIZES = 0.5 ** np.arange(12)
 
 
 def _inputs_to_channels(c: np.ndarray) -> np.ndarray:
@@ -138,31 +162,43 @@ def channels_for_wrench(
     w = np.asarray(wrench, dtype=float)
     if not np.any(w):
         return NEUTRAL_CHANNELS.copy()
+    B = np.asarray(B, dtype=float)
+    # The line search halves the Newton step until the residual does not grow (at most 12
+    # sizes).  The chain runs once for all 12 candidate inputs, as rows; the residuals are then
+    # formed one candidate at a time, in order, up to the first one taken, each as ``B @ u - w``
+    # (the same arithmetic as trying the candidates one by one: the same result, bit for bit).
 
     def thrusts(c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        pwm = 2 * PWM_NEUTRAL_US - motor_pwm(mix(c))
+        # rows of inputs (k, 6) in [-1, 1] -> thrust (k, 8) and thruster PWM (k, 8), as
+        # motor_pwm and thrust_from_channels form them (np.clip's bits, fewer calls)
+        pwm = 2 * PWM_NEUTRAL_US - np.minimum(
+            np.maximum(PWM_NEUTRAL_US + PWM_PER_UNIT * _mix_rows(c), PWM_MIN_US), PWM_MAX_US
+        )
         return curve.force(pwm), pwm
 
     c = np.zeros(6)
-    u, pwm = thrusts(c)
+    u_rows, pwm_rows = thrusts(c[None])
+    u, pwm = u_rows[0], pwm_rows[0]
     r = B @ u - w
+    r_norm = math.sqrt(r @ r)
     for _ in range(iterations):
-        if np.max(np.abs(r)) < tol_N:
+        if np.abs(r).max() < tol_N:
             break
-        J = B @ ((-PWM_PER_UNIT * curve.slope(pwm))[:, None] * MOTOR_FACTORS)
+        J = B @ ((-PWM_PER_UNIT * curve.slope(pwm, u))[:, None] * MOTOR_FACTORS)
         step = np.linalg.lstsq(J, -r, rcond=None)[0]
-        for _ in range(12):  # halve the step until the residual decreases
-            c_new = np.clip(c + step, -1.0, 1.0)
-            u_new, pwm_new = thrusts(c_new)
-            r_new = B @ u_new - w
+        c_new = np.minimum(np.maximum(c + _STEP_SIZES[:, None] * step, -1.0), 1.0)  # np.clip's bits
+        moved = (c_new != c).any(axis=1)
+        u_new, pwm_new = thrusts(c_new)
+        for k in range(len(_STEP_SIZES)):  # the step, its half, its quarter, ...
+            r_new = B @ u_new[k] - w
+            r_new_norm = math.sqrt(r_new @ r_new)
             # not worse: inside a dead band the thrust (so the residual) stays put while the
             # inputs walk towards the band's edge, so equal is progress too
-            if np.linalg.norm(r_new) <= np.linalg.norm(r) and np.any(c_new != c):
+            if r_new_norm <= r_norm and moved[k]:
                 break
-            step = step / 2
         else:
             break
-        c, pwm, r = c_new, pwm_new, r_new
+        c, u, pwm, r, r_norm = c_new[k], u_new[k], pwm_new[k], r_new, r_new_norm
     return _inputs_to_channels(c)
 
 

@@ -79,9 +79,10 @@ def t200_pwm_to_force(pwm_us: np.ndarray | float) -> np.ndarray:
     return np.where(p > PWM_NEUTRAL_US, fwd, np.where(p < PWM_NEUTRAL_US, rev, 0.0))
 
 
-def _t200_slope(pwm_us: np.ndarray) -> np.ndarray:
-    """dF/dPWM (N/us) of the T200 curve; inside the dead band the slope at its edge (bridges it)."""
-    f = t200_pwm_to_force(pwm_us)
+def _t200_slope(pwm_us: np.ndarray, force_N: np.ndarray | None = None) -> np.ndarray:
+    """dF/dPWM (N/us) of the T200 curve; inside the dead band the slope at its edge (bridges it).
+    ``force_N``: the curve's force at ``pwm_us`` when the caller has it (not recomputed)."""
+    f = t200_pwm_to_force(pwm_us) if force_N is None else np.asarray(force_N, dtype=float)
     fwd = _FWD[1] + 2 * _FWD[2] * f + 3 * _FWD[3] * f**2
     rev = _REV[1] + 2 * _REV[2] * f + 3 * _REV[3] * f**2
     dpwm_df = np.where(f > 0, fwd, np.where(f < 0, rev, np.where(pwm_us >= PWM_NEUTRAL_US, _FWD[1], _REV[1])))
@@ -115,11 +116,13 @@ class ThrusterCurve:
         f = np.asarray(self.max_N, dtype=float) * q * np.abs(q)
         return np.where(np.abs(p - PWM_NEUTRAL_US) > self.deadband_us, f, 0.0)
 
-    def slope(self, pwm_us: np.ndarray) -> np.ndarray:
+    def slope(self, pwm_us: np.ndarray, force_N: np.ndarray | None = None) -> np.ndarray:
         """dF/dPWM (N/us) at each PWM; inside a dead band the slope at its edge (so that a Newton
-        iteration on the channels crosses the band instead of stalling in it)."""
+        iteration on the channels crosses the band instead of stalling in it).  ``force_N``,
+        optional: :meth:`force` at ``pwm_us``, when the caller has it already (saves computing it
+        again; the result is the same)."""
         if self.kind == "T200":
-            return _t200_slope(np.asarray(pwm_us, dtype=float))
+            return _t200_slope(np.asarray(pwm_us, dtype=float), force_N)
         p = np.asarray(pwm_us, dtype=float)
         dq = np.maximum(np.abs(p - PWM_NEUTRAL_US), self.deadband_us) / 400.0
         return np.asarray(self.max_N, dtype=float) * 2.0 * dq / 400.0
