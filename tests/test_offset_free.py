@@ -55,9 +55,7 @@ def test_half_buoyancy_no_added_mass_docks_with_the_robust_variant() -> None:
     p = m.build_vehicle().model.params
     net = p.buoyancy_N - p.weight_N
     truth = plant(m, buoyancy_N=(p.weight_N + net / 2) / p.buoyancy_N, added_mass=0.0)
-    paper, _ = _run(m, truth, "paper")
-    robust, _ = _run(m, truth, "robust")
-    print(f"paper: docked {paper['docked']}, closest {paper['closest_approach_m']:.3f} m")
+    robust, _ = _run(m, truth, "robust")  # (the paper variant: nothing about it asserted, not flown)
     assert robust["docked"]
 
 

@@ -34,9 +34,15 @@ def test_robust_fse_docks_where_the_paper_variant_does_not(controller, case) -> 
     """Over 10 seeds of the simulated sensing (Assumption 1's noise; the only random input of
     these runs), the robust variant docks in at least 9, within the tolerance, with no failed
     solve in the runs that dock."""
+    from auvdock.loop.autopilot import build_autopilot
+
     m = load_mission(ROOT / "missions" / f"{case}.yaml").with_updates(**{"controller.type": controller})
     assert m.controller.variant == "robust" and m.estimator.prior_flow_ned_m_s == [0.0, 0.0, 0.0]
-    outcomes = [simulate(m.with_updates(seed=seed)).outcome for seed in SEEDS]
+    # one autopilot flies every seed (the seed is the plant's sensing noise; simulate resets the
+    # autopilot at the start of each run): the same runs as building it anew each time, bit for
+    # bit, without its construction (about 0.9 s) ten times
+    ap = build_autopilot(m, m.build_vehicle(), m.build_dock())
+    outcomes = [simulate(m.with_updates(seed=seed), autopilot=ap).outcome for seed in SEEDS]
     docked = [o for o in outcomes if o["docked"]]
     times = ", ".join(f"{o['time_to_dock_s']:.2f}" if o["docked"] else "timeout" for o in outcomes)
     print(f"{controller} {case}: docked {len(docked)}/{len(outcomes)} seeds ({times} s)")
@@ -48,22 +54,17 @@ def test_robust_fse_docks_where_the_paper_variant_does_not(controller, case) -> 
 @pytest.mark.slow
 def test_robust_fse_docks_with_plant_model_error(controller) -> None:
     """Still water (the tank trial), a plant whose thrusters push 88 % of the command, with
-    1.9 N more buoyancy and 30 % more damping than the model: the paper's flow filter reads the
-    model's error as a current (while the vehicle hardly turns, a 0.3 m/s^2 residual is metres per
-    second of flow); the robust one gates such updates and reads the pose's own motion too, so
-    its estimate stays near the true still water and the controller docks."""
+    1.9 N more buoyancy and 30 % more damping than the model: the robust flow filter gates the
+    updates a model error would drive (the paper's filter reads such an error as a current: while
+    the vehicle hardly turns, a 0.3 m/s^2 residual is metres per second of flow) and reads the
+    pose's own motion too, so its estimate stays near the true still water and the controller
+    docks.  (The paper variant is not flown here: nothing about it is asserted.)"""
     from auvdock.loop.autopilot import build_autopilot
 
     m = load_mission(ROOT / "missions" / "tank_0p6hz.yaml").with_updates(**{"controller.type": controller})
     truth = plant(m, thruster_gain=0.88, buoyancy_N=1.0165, linear_damping=1.3, quadratic_damping=1.3)
-    results = {}
-    for variant in ("paper", "robust"):
-        mv = m.with_updates(**{"controller.variant": variant})
-        ap = build_autopilot(mv, mv.build_vehicle(), mv.build_dock())
-        results[variant] = simulate(truth, autopilot=ap).outcome
-    p, r = results["paper"], results["robust"]
-    print(f"{controller}: paper docked {p['docked']} (closest {p['closest_approach_m']:.3f} m, flow "
-          f"error {p['flow_final_error_m_s']:.3f} m/s); robust docked {r['docked']} at "
-          f"{r.get('time_to_dock_s')} s, flow error {r['flow_final_error_m_s']:.4f} m/s")  # fmt: skip
+    mv = m.with_updates(**{"controller.variant": "robust"})
+    ap = build_autopilot(mv, mv.build_vehicle(), mv.build_dock())
+    r = simulate(truth, autopilot=ap).outcome
     assert r["docked"], r
     assert r["flow_final_error_m_s"] < 0.02

@@ -13,7 +13,6 @@ import math
 import casadi as ca
 import numpy as np
 import pytest
-from scipy.signal import welch
 
 from auvdock.vehicle import load_vehicle
 from auvdock.world.constants import GRAVITY_M_S2 as G
@@ -147,6 +146,8 @@ def test_jonswap_m0_gives_hs():
 
 
 def test_sampled_record_4_sd_and_welch_spectrum_tend_to_the_input():
+    from scipy.signal import welch  # (imported here: a second of every worker's collection)
+
     hs, tp = 1.5, 8.0
     fs, dur = 4.0, 3600.0
     t = np.arange(0, dur, 1 / fs)

@@ -66,13 +66,14 @@ def validate(
     if sea is None:
         console.print("sea: no waves")
     else:
-        console.print(f"sea: {sea.describe()}", markup=False, highlight=False)
+        console.print(f"sea: {sea.describe()}", markup=False, highlight=False, soft_wrap=True)
         w = sea.omega_rad_s
         console.print(
             f"     periods {2 * np.pi / w.max():.3g}-{2 * np.pi / w.min():.3g} s, wavelengths "
             f"{sea.wavelength_m.min():.3g}-{sea.wavelength_m.max():.3g} m",
             markup=False,
             highlight=False,
+            soft_wrap=True,
         )
     if isinstance(dock, HeaveDock):
         console.print(
@@ -80,7 +81,7 @@ def validate(
             f"{dock.amplitude_m:g} m at {dock.angular_frequency_rad_s:g} rad/s ({dock.frequency_hz:.4g} Hz)"
         )
     else:
-        console.print(f"dock: {dock.describe()}", markup=False, highlight=False)
+        console.print(f"dock: {dock.describe()}", markup=False, highlight=False, soft_wrap=True)
     contact = m.build_contact(dock)
     if contact is None:
         console.print(f"docking: within {m.docking.tolerance_m:g} m of the docking point (criterion point)")
@@ -102,7 +103,7 @@ def validate(
             "point inside the dock's structure (criterion capture)",
         ]
         for text in lines:
-            console.print(text, markup=False, highlight=False)
+            console.print(text, markup=False, highlight=False, soft_wrap=True)
     console.print("[green]valid[/green]")
 
 

@@ -291,7 +291,8 @@ def check_fields(sweep: Sweep) -> None:
         if not sweep.model_error.scale:
             raise SweepError(p, "model_error.scale", "give at least one vehicle parameter when n > 0")
         raw = sweep.base_mission.build_vehicle().params.raw
-        scalable = sorted(k for k, v in raw.items() if _numeric(v))
+        # the hull's box is the dock contact's geometry, not the plant's dynamics: no model error
+        scalable = sorted(k for k, v in raw.items() if _numeric(v) and k != "hull_box_m")
         for key in sweep.model_error.scale:
             if key not in scalable:
                 raise SweepError(
