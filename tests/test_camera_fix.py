@@ -119,3 +119,30 @@ def test_the_fast_model_sees_the_markers_the_rendering_pipeline_decodes():
         for _ in range(3):
             image = render_view(camera, layout, R_cd, t_cd, noise_std=2.0, blur_px=0.5, rng=rng)
             assert {d.id for d in detector.detect(image)} == expected, (n, e, yaw)
+
+
+def test_the_sensor_suite_gives_position_fixes_only_while_the_camera_sees_the_dock():
+    """position.source camera_fov: fixes at the camera's rate while the markers are in view, none
+    when the vehicle looks away, each with the model's standard deviation."""
+    from auvdock.config.mission import load_mission
+    from auvdock.sensing.simulated import SensorSuite
+
+    m = load_mission("tank_0p6hz").with_updates(estimation="filter", sensors__position__source="camera_fov")
+    dock = m.build_dock()
+    suite = SensorSuite(m.sensors, m.build_vehicle(), 0, camera_fix=m.build_camera_fix(), dock=dock)
+    x = m.start_state()
+    u = np.zeros(8)
+    facing = [r for k in range(60) for r in suite.read(k * 0.05, x, u, np.zeros(3)) if r.kind == "position"]
+    assert 40 <= len(facing) <= 45  # 15 Hz for 3 s, 2 % dropouts; each 0.1 s late
+    # 2 m in front of the dock, looking at it: the 0.15 m marker 2.15 m ahead (and 0.17 m up) alone
+    d, f = 2.0 + 0.35 - 0.2, CameraModel.ideal().K[0, 0]
+    for r in facing:  # along the view (north) the range error, across it the lateral one
+        np.testing.assert_allclose(
+            r.std, [0.5 * d**2 / (math.sqrt(2) * f * 0.15), 0.5 * d / (2 * f), 0.5 * d / (2 * f)], rtol=0.02
+        )
+    away = x.copy()
+    away[5] = math.pi  # turned round
+    later = [
+        r for k in range(60, 120) for r in suite.read(k * 0.05, away, u, np.zeros(3)) if r.kind == "position"
+    ]
+    assert all(r.t < 3.0 for r in later)  # only the fixes taken before it turned, delivered late

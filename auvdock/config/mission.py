@@ -46,6 +46,7 @@ from auvdock.world.spectra import SpectrumFileError
 
 if TYPE_CHECKING:
     from auvdock.camera.model import CameraMount
+    from auvdock.sensing.camera_fix import CameraFixModel
     from auvdock.world.dock_body import CaptureLimits, DockBody, HullBox
     from auvdock.world.waves import WaveComponents
     from auvdock.world.wec_dock import WecDock
@@ -543,6 +544,27 @@ class Mission(Strict):
         except (OSError, ValueError) as e:
             raise MissionError(where, "camera.calibration", str(e)) from None
 
+    def build_camera_fix(self) -> CameraFixModel:
+        """The fast camera model of ``sensors.position.source: camera_fov``
+        (:class:`auvdock.sensing.camera_fix.CameraFixModel`): the camera's intrinsics (its
+        calibration file, else the ideal 640 x 480, 80 deg camera), ``camera.mount``, the dock's
+        markers and ``sensors.position.camera_fov``."""
+        from auvdock.camera.model import CameraModel
+        from auvdock.sensing.camera_fix import CameraFixModel
+
+        camera = self.build_camera() if self.camera.calibration is not None else CameraModel.ideal()
+        s = self.sensors.position.camera_fov
+        return CameraFixModel(
+            camera,
+            self.camera.mount.build(),
+            self.dock.marker_layout(),
+            visibility_m=s.visibility_m,
+            min_side_px=s.min_side_px,
+            max_view_angle_deg=s.max_view_angle_deg,
+            corner_px=s.corner_px,
+            dropout=s.dropout,
+        )
+
     def build_flow(self) -> FlowField:
         """The true flow field."""
         return self.flow.build()
@@ -604,7 +626,9 @@ class Mission(Strict):
         coef = getattr(dock, "coefficients", None)
         if self.dock.wec is not None and coef is not None:
             buoy = WecBuoy.above(float(self.dock.position_ned_m[2]), coef.radius_m, coef.draft_m)
-        body = self.dock.body.build(hull, buoy)
+        layout = self.dock.marker_layout()
+        panel_x = max(float(m.position_dock_m[0]) for m in layout.markers)
+        body = self.dock.body.build(hull, buoy, panel_x)
         limits = self.docking.capture.build()
         limits.check(body, hull)
         return body, hull, limits

@@ -104,7 +104,14 @@ class SimulatedPlant:
             self.columns.update(SEA_COLUMNS)
         if contact is not None:
             self.columns["nose_dock_m"] = (3,)
-        self.sensors = SimulatedSensors(mission.sensors, mission.estimation, vehicle, mission.seed)
+        camera_fix = None
+        if mission.estimation == "filter" and mission.sensors.position.source == "camera_fov":
+            if dock is None:
+                raise ValueError("position source camera_fov: the simulated camera needs the dock")
+            camera_fix = mission.build_camera_fix()
+        self.sensors = SimulatedSensors(
+            mission.sensors, mission.estimation, vehicle, mission.seed, camera_fix=camera_fix, dock=dock
+        )
         self._zero = np.zeros(vehicle.n_thrusters)
         self.start()
 

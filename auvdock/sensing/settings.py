@@ -19,7 +19,7 @@ Seeded: the same seed gives the same readings.
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Annotated, Literal
 
 from pydantic import Field
 
@@ -33,6 +33,7 @@ __all__ = [
     "PositionSettings",
     "DvlSettings",
     "POSITION_SOURCES",
+    "CameraFovSettings",
 ]
 
 
@@ -117,15 +118,56 @@ POSITION_SOURCES: dict[str, tuple[float, float, float, str]] = {
         0.001,
         "underwater motion capture in a tank (assumed 1 mm, 10 ms)",
     ),
+    "camera_fov": (
+        15.0,
+        0.1,
+        0.01,
+        "the dock's markers through the mission's camera with its field of view, the water's "
+        "visibility, a smallest decodable marker and dropouts (auvdock.sensing.camera_fix): a fix "
+        "only when markers are seen, its noise from the geometry (the std here is not used); 15 Hz "
+        "as the synthetic camera, 0.1 s latency (fly measured 98 ms median)",
+    ),
 }
+
+
+class CameraFovSettings(Strict):
+    """position.source camera_fov: what the camera can see of the dock's markers."""
+
+    visibility_m: PosFloat = Field(
+        default=8.0,
+        description="range beyond which the water hides a marker, m (turbidity; assumed: clear coastal "
+        "water; a turbid harbour is 1-3 m)",
+    )
+    min_side_px: PosFloat = Field(
+        default=16.0,
+        description="smallest apparent marker side decoded, px (between what the detector decoded, 17.9 "
+        "px, and did not, 13.6 px, on rendered views: benchmarks/camera_fix_errors.py)",
+    )
+    max_view_angle_deg: Annotated[float, Field(gt=0, lt=90)] = Field(
+        default=70.0,
+        description="largest angle between a marker's normal and the line of sight, deg (assumed)",
+    )
+    corner_px: PosFloat = Field(
+        default=0.5,
+        description="corner localisation noise, px (assumed for water; rendered views give far less)",
+    )
+    dropout: Annotated[float, Field(ge=0, lt=1)] = Field(
+        default=0.02, description="probability that a frame with markers in view gives no fix (assumed)"
+    )
 
 
 class PositionSettings(Strict):
     """Where position fixes come from; rate, latency and noise default to the source's figures."""
 
-    source: Literal["none", "acoustic", "dvl_dead_reckoning", "camera", "motion_capture"] = Field(
-        default="camera", description="none, acoustic, dvl_dead_reckoning, camera or motion_capture"
+    source: Literal["none", "acoustic", "dvl_dead_reckoning", "camera", "motion_capture", "camera_fov"] = (
+        Field(
+            default="camera",
+            description="none, acoustic, dvl_dead_reckoning, camera (an ideal fix at any range and angle), "
+            "motion_capture or camera_fov (the dock's markers as a camera sees them: field of view, range, "
+            "visibility, dropouts)",
+        )
     )
+    camera_fov: CameraFovSettings = Field(default_factory=CameraFovSettings)
     rate_hz: PosFloat | None = Field(default=None, description="fixes per second, Hz (default: the source's)")
     latency_s: NonNegFloat | None = Field(default=None, description="fix to use, s (default: the source's)")
     std_m: NonNegFloat | None = Field(

@@ -27,7 +27,9 @@ from auvdock.sensing.settings import SensorSettings
 from auvdock.vehicle.state import ANG, ATT, ETA, LIN
 
 if TYPE_CHECKING:
+    from auvdock.sensing.camera_fix import CameraFixModel
     from auvdock.vehicle import Vehicle
+    from auvdock.world.dock import DockMotion
 
 __all__ = ["SensorModel", "SensorSuite", "SimulatedSensors"]
 
@@ -113,11 +115,28 @@ class SensorSuite:
         The one model the measurements are defined on.
     seed : int
         Seed of biases and noise.
+    camera_fix : CameraFixModel, optional
+        With ``position.source: camera_fov``, the position fixes are this camera's
+        (:mod:`auvdock.sensing.camera_fix`): only when it sees the markers of ``dock``.
+    dock : DockMotion, optional
+        The true dock the camera looks at.
     """
 
-    def __init__(self, settings: SensorSettings, vehicle: Vehicle, seed: int) -> None:
+    def __init__(
+        self,
+        settings: SensorSettings,
+        vehicle: Vehicle,
+        seed: int,
+        *,
+        camera_fix: CameraFixModel | None = None,
+        dock: DockMotion | None = None,
+    ) -> None:
         self.vehicle = vehicle
         self.rng = np.random.default_rng([int(seed), 15])
+        self.camera_fix = camera_fix if settings.position.source == "camera_fov" else None
+        self.dock = dock
+        if self.camera_fix is not None and dock is None:
+            raise ValueError("position source camera_fov: the camera needs the dock it looks at")
         chans = []
         for err in sensor_errors(settings).values():
             if not err.enabled:
@@ -135,7 +154,14 @@ class SensorSuite:
 
         out = []
         for c in self.channels:
-            if t + 1e-9 >= c.next_sample:
+            if t + 1e-9 >= c.next_sample and c.kind == "position" and self.camera_fix is not None:
+                # the camera's fix: only when it sees the dock's markers, its noise from the geometry
+                assert self.dock is not None
+                fix = self.camera_fix.fix(x, self.dock.position(t), self.dock.heading_rad, self.rng)
+                if fix is not None:
+                    c.pending.append(Reading(c.kind, t, fix.position_ned_m, fix.std_ned_m))
+                c.next_sample = max(c.next_sample + c.period, t + 0.5 * c.period)
+            elif t + 1e-9 >= c.next_sample:
                 value = measure(c.kind, self.vehicle, x, u_prev, flow_ned)
                 noisy = value + c.bias + c.std * self.rng.standard_normal(c.std.shape)
                 # the sensor's stated std is its white noise: the bias is what a filter must live with
@@ -160,16 +186,27 @@ class SimulatedSensors:
         The one model the measurements are defined on.
     seed : int
         The mission's seed.
+    camera_fix, dock : CameraFixModel, DockMotion, optional
+        For ``position.source: camera_fov``: the camera model and the true dock it looks at.
     """
 
-    def __init__(self, settings: SensorSettings, estimation: str, vehicle: Vehicle, seed: int) -> None:
+    def __init__(
+        self,
+        settings: SensorSettings,
+        estimation: str,
+        vehicle: Vehicle,
+        seed: int,
+        *,
+        camera_fix: CameraFixModel | None = None,
+        dock: DockMotion | None = None,
+    ) -> None:
         rotation = vehicle.model.function("rotation")
         self.paper: SensorModel | None = None
         self.suite: SensorSuite | None = None
         if estimation == "truth":
             self.paper = SensorModel(settings, seed, lambda a: np.asarray(rotation(a)))
         else:
-            self.suite = SensorSuite(settings, vehicle, seed)
+            self.suite = SensorSuite(settings, vehicle, seed, camera_fix=camera_fix, dock=dock)
 
     def read(
         self,
