@@ -32,15 +32,29 @@ class DockBodySpec(Strict):
         default=1.20, description="half-width of the frame around funnel and cradle (y and z), m"
     )
     back_plate_thickness_m: PosFloat = Field(default=0.05, description="thickness of the back plate, m")
-    clearance_m: NonNegFloat = Field(
-        default=0.05, description="gap from the docked vehicle's nose to the back plate, m"
+    clearance_m: NonNegFloat | None = Field(
+        default=None,
+        description="gap from the docked vehicle's nose to the back plate, m (default: the back plate "
+        "is the dock's marker panel, the plane of dock.markers)",
     )
 
-    def build(self, hull: HullBox, buoy: WecBuoy | None = None) -> DockBody:
-        """The dock body for a vehicle of hull ``hull`` (its docked body origin at the docking point)."""
+    def build(
+        self, hull: HullBox, buoy: WecBuoy | None = None, marker_plane_x_m: float | None = None
+    ) -> DockBody:
+        """The dock body for a vehicle of hull ``hull`` (its docked body origin at the docking point).
+
+        ``marker_plane_x_m``: x_d of the dock's marker panel; without ``clearance_m`` the back
+        plate's face is there (0.35 m for the default marker layout: 0.1215 m ahead of the docked
+        Heavy's nose), else 0.05 m ahead of the nose."""
+        if self.clearance_m is not None:
+            clearance = float(self.clearance_m)
+        elif marker_plane_x_m is not None:
+            clearance = float(marker_plane_x_m) - float(hull.nose_b_m[0])
+        else:
+            clearance = 0.05
         return DockBody.for_hull(
             hull,
-            clearance_m=self.clearance_m,
+            clearance_m=clearance,
             cradle_radius_m=self.cradle_radius_m,
             cradle_depth_m=self.cradle_depth_m,
             funnel_length_m=self.funnel_length_m,
