@@ -157,3 +157,29 @@ def test_the_buoys_heave_amplitudes_are_rayleigh_distributed():
     assert crests_a.size > 1000
     assert np.median(crests_a) == pytest.approx(math.sqrt(2 * math.log(2)), rel=0.08)
     assert np.mean(crests_a > math.sqrt(2 * math.log(10))) == pytest.approx(0.1, abs=0.03)
+
+
+@pytest.mark.slow
+def test_the_sea_figures_show_the_spectrum_the_dock_and_the_path_through_the_entry(tmp_path):
+    from auvdock.results.plots import run_figures
+
+    s = simulate(load_mission("basin_regular"), out=tmp_path / "r.h5", timeout_s=30.0)
+    assert s.outcome["captured"]
+    r = read_run(s.path)
+    figures = dict(run_figures(r))
+    sea_ax = figures["sea"].axes
+    legend = [t.get_text() for t in sea_ax[0].get_legend().get_texts()]
+    assert legend == ["regular wave, a = 0.0635 m (a^2/2 in m^2)"]  # the spectrum panel: one component
+    labels = [line.get_label() for ax in sea_ax for line in ax.get_lines()]
+    assert "sea elevation at the dock (m, up)" in labels and "dock heave about its mean (m, up)" in labels
+    assert sum(label.startswith("orbital velocity at the vehicle") for label in labels) == 3
+    heave = next(
+        line for ax in sea_ax for line in ax.get_lines() if line.get_label().startswith("dock heave")
+    )
+    y = np.asarray(heave.get_ydata())
+    assert (np.max(y) - np.min(y)) / 2 == pytest.approx(0.0635, rel=0.01)  # the paper's 2.5 in heave
+    top, side = figures["dock_entry"].axes[:2]
+    nose = next(line for line in top.get_lines() if line.get_label() == "vehicle nose")
+    x = np.asarray(nose.get_xdata())
+    assert x[0] < -1.5 and x[-1] > -0.05  # from 2 m out to inside the cradle (entrance at x_d = 0.05)
+    assert any(c.get_label() == "captured" for c in top.collections)
