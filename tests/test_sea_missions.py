@@ -183,3 +183,20 @@ def test_the_sea_figures_show_the_spectrum_the_dock_and_the_path_through_the_ent
     x = np.asarray(nose.get_xdata())
     assert x[0] < -1.5 and x[-1] > -0.05  # from 2 m out to inside the cradle (entrance at x_d = 0.05)
     assert any(c.get_label() == "captured" for c in top.collections)
+
+
+def test_fly_refuses_a_wec_dock_in_one_line():
+    """A WEC dock's motion is the simulated sea's: no vehicle can be told it, so fly refuses before
+    connecting (exit 2, one line naming the field)."""
+    import socket
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    res = runner.invoke(app, ["fly", "pacwave_common_10m", "--port", f"udpin:127.0.0.1:{port}"])
+    assert res.exit_code == 2, res.output
+    last = res.output.strip().splitlines()[-1]
+    assert last.endswith(
+        "pacwave_common_10m.yaml: dock.wec: a WEC dock in a simulated sea is for sim; fly needs the dock's "
+        "motion model (dock.heave)"
+    )
