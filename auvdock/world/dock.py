@@ -17,7 +17,7 @@ import numpy as np
 
 from auvdock.vehicle.state import LIN, NX, POS, YAW
 
-__all__ = ["DockMotion", "HeaveDock", "TrackedDock"]
+__all__ = ["DockMotion", "TranslatingDock", "HeaveDock", "TrackedDock"]
 
 
 class DockMotion(Protocol):
@@ -39,8 +39,66 @@ class DockMotion(Protocol):
     def reference_state(self, t: float | np.ndarray) -> np.ndarray: ...
 
 
+class TranslatingDock:
+    """What every dock that translates without rotating derives from its motion.
+
+    A subclass gives ``position(t)`` and ``velocity(t)`` (NED, m and m/s, shape (..., 3)) and a
+    fixed ``heading_rad``; this gives the horizon's ``trajectory``, the dock's state in the
+    vehicle's layout (``reference_state``) and its 6-DOF ``pose``.
+    """
+
+    heading_rad: float
+
+    def position(self, t: float | np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    def velocity(self, t: float | np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    def trajectory(self, t0: float, dt: float, n_steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Dock motion at ``t0 + k dt`` for k = 0..n_steps.
+
+        Returns
+        -------
+        t : ndarray, shape (n_steps + 1,)
+            Times in s.
+        position : ndarray, shape (n_steps + 1, 3)
+            NED positions in m.
+        velocity : ndarray, shape (n_steps + 1, 3)
+            NED velocities in m/s.
+        """
+        t = t0 + dt * np.arange(n_steps + 1)
+        return t, self.position(t), self.velocity(t)
+
+    def pose(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """The dock's 6-DOF pose and twist at t (s).
+
+        Pose: north, east, down (m), roll, pitch, yaw (rad); twist: NED velocity (m/s), rates (rad/s)."""
+        pose = np.zeros(6)
+        pose[0:3] = self.position(t)
+        pose[5] = self.heading_rad
+        twist = np.zeros(6)
+        twist[0:3] = self.velocity(t)
+        return pose, twist
+
+    def reference_state(self, t: float | np.ndarray) -> np.ndarray:
+        """The dock's state x_W in the vehicle's state layout, shape (..., 12).
+
+        ``[x, y, z, 0, 0, heading, vn, ve, vd, 0, 0, 0]``; the velocity part is the
+        dock's NED velocity (equal to its body velocity, as the dock is level and does
+        not rotate apart from its fixed heading, up to that heading's rotation).
+        """
+        p = self.position(t)
+        v = self.velocity(t)
+        out = np.zeros(p.shape[:-1] + (NX,))
+        out[..., POS] = p
+        out[..., YAW] = self.heading_rad
+        out[..., LIN] = v
+        return out
+
+
 @dataclass(frozen=True)
-class HeaveDock:
+class HeaveDock(TranslatingDock):
     """A dock heaving as ``z(t) = z0 + A sin(w t + phase)``.
 
     Parameters
@@ -81,48 +139,6 @@ class HeaveDock:
         w = self.angular_frequency_rad_s
         zd = w * self.amplitude_m * np.cos(w * t + self.phase_rad)
         return np.stack([np.zeros_like(zd), np.zeros_like(zd), zd], axis=-1)
-
-    def trajectory(self, t0: float, dt: float, n_steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Dock motion at ``t0 + k dt`` for k = 0..n_steps.
-
-        Returns
-        -------
-        t : ndarray, shape (n_steps + 1,)
-            Times in s.
-        position : ndarray, shape (n_steps + 1, 3)
-            NED positions in m.
-        velocity : ndarray, shape (n_steps + 1, 3)
-            NED velocities in m/s.
-        """
-        t = t0 + dt * np.arange(n_steps + 1)
-        return t, self.position(t), self.velocity(t)
-
-    def pose(self, t: float) -> tuple[np.ndarray, np.ndarray]:
-        """The dock's 6-DOF pose and twist at t (s).
-
-        Pose: north, east, down (m), roll, pitch, yaw (rad); twist: NED velocity (m/s), rates (rad/s)."""
-        pose = np.zeros(6)
-        pose[0:3] = self.position(t)
-        pose[5] = self.heading_rad
-        twist = np.zeros(6)
-        twist[0:3] = self.velocity(t)
-        return pose, twist
-
-    def reference_state(self, t: float | np.ndarray) -> np.ndarray:
-        """The dock's state x_W in the vehicle's state layout, shape (..., 12).
-
-        ``[x, y, z, 0, 0, heading, vn, ve, vd, 0, 0, 0]``; the velocity part is the
-        dock's NED velocity (equal to its body velocity, as the dock is level and does
-        not rotate apart from its fixed heading, up to that heading's rotation).
-        """
-        p = self.position(t)
-        v = self.velocity(t)
-        shape = p.shape[:-1]
-        out = np.zeros(shape + (NX,))
-        out[..., POS] = p
-        out[..., YAW] = self.heading_rad
-        out[..., LIN] = v
-        return out
 
 
 class TrackedDock:

@@ -14,10 +14,10 @@ has heave only).  The RAO uses the components' fixed-point frequencies: the buoy
 meets the waves at the frequency a fixed probe measures; the current's effect on the radiation
 and diffraction coefficients is neglected.
 
-Same interface as :class:`auvdock.world.dock.HeaveDock` (``position``, ``velocity``,
-``trajectory``, ``reference_state``, ``heading_rad``) so every controller and the docking rule
-use it unchanged, plus ``acceleration``, ``elevation`` (the sea at the buoy) and the record of
-what moved it.
+Same interface as :class:`auvdock.world.dock.HeaveDock` (``position``, ``velocity``, and from
+:class:`auvdock.world.dock.TranslatingDock` ``trajectory``, ``reference_state``, ``pose``) so
+every controller and the docking rule use it unchanged, plus ``acceleration``, ``elevation`` (the
+sea at the buoy) and the record of what moved it.
 
 References
 ----------
@@ -32,13 +32,13 @@ from typing import Any
 
 import numpy as np
 
-from auvdock.vehicle.state import LIN, NX, POS, YAW
+from auvdock.world.dock import TranslatingDock
 from auvdock.world.waves import WaveComponents
 
 __all__ = ["WecDock"]
 
 
-class WecDock:
+class WecDock(TranslatingDock):
     """A docking point below a heaving WEC buoy in a realised sea (see the module docstring).
 
     Parameters
@@ -157,32 +157,6 @@ class WecDock:
         """Docking point acceleration (north, east, down), m/s^2; shape (..., 3)."""
         zdd = -self.heave_accel_up(t)
         return np.stack([np.zeros_like(zdd), np.zeros_like(zdd), zdd], -1)
-
-    def trajectory(self, t0: float, dt: float, n_steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Times (n_steps + 1,), positions and velocities (n_steps + 1, 3) at ``t0 + k dt``."""
-        t = t0 + dt * np.arange(n_steps + 1)
-        return t, self.position(t), self.velocity(t)
-
-    def reference_state(self, t: float | np.ndarray) -> np.ndarray:
-        """The dock's state x_W (..., 12): position, heading, NED velocity (as HeaveDock's)."""
-        p = self.position(t)
-        v = self.velocity(t)
-        out = np.zeros(p.shape[:-1] + (NX,))
-        out[..., POS] = p
-        out[..., YAW] = self.heading_rad
-        out[..., LIN] = v
-        return out
-
-    def pose(self, t: float) -> tuple[np.ndarray, np.ndarray]:
-        """The dock's 6-DOF pose and twist at t (s).
-
-        Pose: north, east, down (m), roll, pitch, yaw (rad); twist: NED velocity (m/s), rates (rad/s)."""
-        pose = np.zeros(6)
-        pose[0:3] = self.position(t)
-        pose[5] = self.heading_rad
-        twist = np.zeros(6)
-        twist[0:3] = self.velocity(t)
-        return pose, twist
 
     def describe(self) -> str:
         """One line: what moves the dock and how much."""
