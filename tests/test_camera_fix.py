@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from auvdock.camera.layout import Marker, MarkerLayout, default_layout
-from auvdock.camera.model import CameraModel, CameraMount
+from auvdock.camera.model import CameraModel, CameraMount, camera_from_dock
 from auvdock.sensing.camera_fix import CameraFixModel
 
 ONE = MarkerLayout(dictionary="apriltag_36h11", markers=(Marker(0, 0.15, (0.35, 0.0, 0.0)),))
@@ -87,6 +87,10 @@ def test_fix_noise_statistics_match_the_model_over_many_draws():
     assert np.all(np.abs(err.mean(axis=0)) < 4 * np.sqrt(np.diag(cov) / len(got)))  # unbiased
     # within 5 standard errors of a variance estimated from 8000 draws (sqrt(2 / 8000) = 1.6 %)
     np.testing.assert_allclose(np.cov(err.T), cov, rtol=0.08, atol=0.08 * np.max(np.diag(cov)))
+    # what the camera measures: the dock in its frame, with the model's std per camera axis
+    _, t_cd = camera_from_dock(x[0:6], np.zeros(3), 0.0, CameraMount())
+    err_c = np.array([f.dock_camera_m - t_cd for f in got])
+    np.testing.assert_allclose(err_c.std(axis=0), got[0].std_camera_m, rtol=0.05)
 
 
 def test_more_markers_seen_give_a_better_fix():
@@ -121,28 +125,32 @@ def test_the_fast_model_sees_the_markers_the_rendering_pipeline_decodes():
             assert {d.id for d in detector.detect(image)} == expected, (n, e, yaw)
 
 
-def test_the_sensor_suite_gives_position_fixes_only_while_the_camera_sees_the_dock():
-    """position.source camera_fov: fixes at the camera's rate while the markers are in view, none
-    when the vehicle looks away, each with the model's standard deviation."""
+def test_the_sensor_suite_gives_dock_fixes_only_while_the_camera_sees_the_dock():
+    """sensors.dock_camera: fixes at the camera's rate while the markers are in view, none when the
+    vehicle looks away, each the dock in the camera frame with the model's standard deviation."""
     from auvdock.config.mission import load_mission
     from auvdock.sensing.simulated import SensorSuite
 
-    m = load_mission("tank_0p6hz").with_updates(estimation="filter", sensors__position__source="camera_fov")
+    m = load_mission("tank_0p6hz").with_updates(
+        estimation="filter", sensors__position__source="none", sensors__dock_camera__enabled=True
+    )
     dock = m.build_dock()
     suite = SensorSuite(m.sensors, m.build_vehicle(), 0, camera_fix=m.build_camera_fix(), dock=dock)
     x = m.start_state()
     u = np.zeros(8)
-    facing = [r for k in range(60) for r in suite.read(k * 0.05, x, u, np.zeros(3)) if r.kind == "position"]
+    facing = [r for k in range(60) for r in suite.read(k * 0.05, x, u, np.zeros(3)) if r.kind == "dock"]
+    assert not [r for k in range(60) for r in suite.read(k * 0.05, x, u, np.zeros(3)) if r.kind == "position"]
     assert 40 <= len(facing) <= 45  # 15 Hz for 3 s, 2 % dropouts; each 0.1 s late
     # 2 m in front of the dock, looking at it: the 0.15 m marker 2.15 m ahead (and 0.17 m up) alone
     d, f = 2.0 + 0.35 - 0.2, CameraModel.ideal().K[0, 0]
-    for r in facing:  # along the view (north) the range error, across it the lateral one
+    for r in facing:  # across the view (image x, y) the lateral error, along it (z) the range one
         np.testing.assert_allclose(
-            r.std, [0.5 * d**2 / (math.sqrt(2) * f * 0.15), 0.5 * d / (2 * f), 0.5 * d / (2 * f)], rtol=0.02
+            r.std, [0.5 * d / (2 * f), 0.5 * d / (2 * f), 0.5 * d**2 / (math.sqrt(2) * f * 0.15)], rtol=0.02
         )
+        np.testing.assert_allclose(r.value, [0.0, -dock.position(r.t)[2] + 1.0, 1.8], atol=0.2)
     away = x.copy()
     away[5] = math.pi  # turned round
     later = [
-        r for k in range(60, 120) for r in suite.read(k * 0.05, away, u, np.zeros(3)) if r.kind == "position"
+        r for k in range(60, 120) for r in suite.read(k * 0.05, away, u, np.zeros(3)) if r.kind == "dock"
     ]
     assert all(r.t < 3.0 for r in later)  # only the fixes taken before it turned, delivered late

@@ -30,13 +30,42 @@ def holding_thrust(vehicle, x, flow=np.zeros(3)):
 
 
 def test_kinds_and_dimensions(vehicle):
-    assert ms.KINDS == {"attitude": 3, "gyro": 3, "accel": 3, "depth": 1, "position": 3, "dvl": 3}
+    assert ms.KINDS == {"attitude": 3, "gyro": 3, "accel": 3, "depth": 1, "position": 3, "dvl": 3, "dock": 3}
     x = np.arange(1.0, 13.0) / 10
     for kind, n in ms.KINDS.items():
+        if kind == "dock":  # needs the dock and the camera mount: its expression only
+            with pytest.raises(ValueError, match="needs the dock's position and the camera mount"):
+                ms.measure(kind, vehicle, x)
+            continue
         assert ms.measure(kind, vehicle, x).shape == (n,)
         assert ms.h(kind, vehicle) is ms.h(kind, vehicle)  # cached
     with pytest.raises(KeyError, match="unknown measurement kind"):
         ms.measure("sonar", vehicle, x)
+
+
+@pytest.mark.parametrize(
+    "yaw_deg, dock, expected",
+    [
+        (0.0, (2.0, 0.0, 5.0), (0.0, 0.0, 1.8)),  # 2 m ahead: 1.8 m along the axis of a camera 0.2 m forward
+        (90.0, (0.0, 2.0, 5.0), (0.0, 0.0, 1.8)),  # facing east, the dock 2 m east
+        (0.0, (0.0, 1.0, 5.0), (1.0, 0.0, -0.2)),  # abeam to starboard: image right, behind the lens
+        (0.0, (2.0, 0.0, 5.5), (0.0, 0.5, 1.8)),  # 0.5 m deeper: image down
+    ],
+)
+def test_the_dock_in_the_camera_frame(vehicle, yaw_deg, dock, expected):
+    """Kind ``dock``: the docking point in the frame of the default camera (0.2 m ahead of the
+    body origin, optical axis along body x, image x to starboard, y down)."""
+    from auvdock.camera.model import CameraMount
+
+    mount = CameraMount()
+    x_sym, d_sym = ca.SX.sym("x", NX), ca.SX.sym("d", 3)
+    y = ms.expression(
+        "dock", vehicle.model, x_sym, ca.SX.zeros(8), ca.SX.zeros(3), (d_sym, mount.R_bc(), mount.t_bc())
+    )
+    f = ca.Function("h_dock", [x_sym, d_sym], [y])
+    x = np.zeros(NX)
+    x[2], x[5] = 5.0, math.radians(yaw_deg)
+    np.testing.assert_allclose(np.asarray(f(x, np.array(dock))).ravel(), expected, atol=1e-12)
 
 
 def test_slices_of_the_state(vehicle):
@@ -111,6 +140,8 @@ def test_casadi_and_numpy_agree(vehicle):
         u = sym.sym("u", vehicle.n_thrusters)
         vc = sym.sym("vc", 3)
         for kind in ms.KINDS:
+            if kind == "dock":  # test_the_dock_in_the_camera_frame
+                continue
             y = ms.expression(kind, vehicle.model, x, u, vc)
             f = ca.Function("f", [x, u, vc], [y, ca.jacobian(y, x)])
             y0, J = (np.asarray(v) for v in f(x0, u0, vc0))

@@ -140,6 +140,7 @@ def test_attrs_round_trip(tmp_path: Path) -> None:
         4: "no_step",
         5: "settling",
         6: "hold",
+        7: "lost_target",
     }
 
     out = r.outcome()

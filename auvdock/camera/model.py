@@ -32,7 +32,7 @@ import numpy as np
 import yaml
 
 from auvdock.config.yamlio import load_yaml_strict
-from auvdock.vehicle.geometry import rotation_zyx
+from auvdock.vehicle.geometry import point_in_sensor_frame, rotation_zyx
 from auvdock.vehicle.state import POS
 
 __all__ = [
@@ -360,7 +360,7 @@ def camera_from_dock(
     R_nd = rotation_zyx(0.0, 0.0, float(dock_heading_rad))
     R_bc = mount.R_bc()
     R_cd = R_bc.T @ R_nb.T @ R_nd
-    t_cd = R_bc.T @ (R_nb.T @ (p_nd - eta[POS]) - mount.t_bc())
+    t_cd = point_in_sensor_frame(R_nb, eta[POS], p_nd, R_bc, mount.t_bc())
     return R_cd, t_cd
 
 

@@ -15,6 +15,7 @@ Minimal mission::
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, Literal
@@ -37,6 +38,7 @@ from auvdock.controllers.settings import MPCSettings
 from auvdock.controllers.solvers import solver_names
 from auvdock.estimation.flow_filter import EstimatorSettings
 from auvdock.estimation.navigation_filter import NavigationSettings
+from auvdock.loop.guidance import GuidanceSettings
 from auvdock.sensing.settings import SensorSettings
 from auvdock.vehicle import Vehicle, load_vehicle, preset_names
 from auvdock.vehicle.params import VehicleParamsError
@@ -205,6 +207,12 @@ class DockSpec(Strict):
 
     position_ned_m: Vec3 = Field(default=[2.0, 3.0, 5.0], description="mean position (north, east, down), m")
     heading_deg: float = Field(default=0.0, description="target heading of the docked vehicle, degrees")
+    position_std_m: NonNegFloat = Field(
+        default=0.0,
+        description="in simulation the dock really is this far from position_ned_m, drawn per seed (std per "
+        "horizontal axis, m: a chart's error, a moored buoy's watch circle); the vehicle believes "
+        "position_ned_m (navigation.prior_dock_std_m its uncertainty) until its camera sees the dock",
+    )
     heave: HeaveSpec = Field(default_factory=HeaveSpec)
     wec: WecSpec | None = Field(
         default=None,
@@ -273,6 +281,12 @@ class StartSpec(Strict):
     state: Vec12 = Field(
         default=[0.0, 0.0, 5.0, 0, 0, 0, 0, 0, 0, 0, 0, 0],
         description="[x y z (NED m), phi theta psi (rad), u v w (body m/s over ground), p q r (rad/s)]",
+    )
+    position_std_m: NonNegFloat = Field(
+        default=0.0,
+        description="in simulation the vehicle really starts this far from state's position, drawn per "
+        "seed (std per horizontal axis, m: a vehicle placed by hand, a GPS fix at the surface); what the "
+        "vehicle believes is state (navigation.prior_position_std_m its uncertainty)",
     )
 
 
@@ -466,6 +480,11 @@ class Mission(Strict):
         "or filter (the navigation filter on the sensor suite: auvdock.estimation.stage)",
     )
     navigation: NavigationSettings = Field(default_factory=NavigationSettings)
+    guidance: GuidanceSettings = Field(
+        default_factory=GuidanceSettings,
+        description="with a dock camera (sensors.dock_camera, estimation: filter): the approach through a "
+        "standoff point and the lost-target policy (auvdock.loop.guidance)",
+    )
     estimator: EstimatorSettings = Field(default_factory=EstimatorSettings)
     sensors: SensorSettings = Field(default_factory=SensorSettings)
     docking: DockingSpec = Field(default_factory=DockingSpec)
@@ -545,15 +564,15 @@ class Mission(Strict):
             raise MissionError(where, "camera.calibration", str(e)) from None
 
     def build_camera_fix(self) -> CameraFixModel:
-        """The fast camera model of ``sensors.position.source: camera_fov``
+        """The fast camera model of ``sensors.dock_camera``
         (:class:`auvdock.sensing.camera_fix.CameraFixModel`): the camera's intrinsics (its
         calibration file, else the ideal 640 x 480, 80 deg camera), ``camera.mount``, the dock's
-        markers and ``sensors.position.camera_fov``."""
+        markers and ``sensors.dock_camera``."""
         from auvdock.camera.model import CameraModel
         from auvdock.sensing.camera_fix import CameraFixModel
 
         camera = self.build_camera() if self.camera.calibration is not None else CameraModel.ideal()
-        s = self.sensors.position.camera_fov
+        s = self.sensors.dock_camera
         return CameraFixModel(
             camera,
             self.camera.mount.build(),
@@ -581,14 +600,22 @@ class Mission(Strict):
         base = self._source.parent if self._source is not None else None
         return self.sea.build(self.seed, self.controller.dt_s, (float(v[0]), float(v[1])), base)
 
-    def build_dock(self, sea: WaveComponents | None = None) -> HeaveDock | WecDock:
+    def build_dock(self, sea: WaveComponents | None = None, *, truth: bool = False) -> HeaveDock | WecDock:
         """The dock: the paper's sinusoid, or a WEC buoy heaving in the sea (``dock.wec``).
 
         ``sea``: the realised sea (default: :meth:`build_sea`), so that the plant's water and the
-        dock's motion come from one object.
+        dock's motion come from one object.  ``truth``: where the simulated dock really is, moved
+        by :meth:`true_dock_offset` (``dock.position_std_m``); otherwise where the mission charts it.
         """
+        position = np.asarray(self.dock.position_ned_m, dtype=float)
+        if truth:
+            position = position + self.true_dock_offset()
         if self.dock.wec is None:
-            return self.dock.build()
+            dock = self.dock.build()
+            if truth and self.dock.position_std_m > 0:
+                n, e, d = (float(v) for v in position)
+                dock = dataclasses.replace(dock, position_ned_m=(n, e, d))
+            return dock
         from auvdock.world.wec_dock import WecDock
         from auvdock.world.wec_table import load_heave_table
 
@@ -606,7 +633,7 @@ class Mission(Strict):
         return WecDock.from_coefficients(
             sea,
             coefficients,
-            tuple(float(v) for v in self.dock.position_ned_m),  # type: ignore[arg-type]
+            tuple(float(v) for v in position),  # type: ignore[arg-type]
             math.radians(self.dock.heading_deg),
             pto_damping_N_s_m=w.pto_damping_N_s_m,
             viscous_damping_N_s_m=w.viscous_damping_N_s_m,
@@ -672,8 +699,27 @@ class Mission(Strict):
         return None
 
     def start_state(self) -> np.ndarray:
-        """Initial state (12,)."""
+        """Initial state (12,): where the vehicle believes it starts."""
         return np.asarray(self.start.state, dtype=float)
+
+    def _truth_draws(self) -> np.ndarray:
+        """(start N, E, dock N, E) offsets of this seed's truth, standard normal, on a stream of
+        their own (adding them changes no other draw)."""
+        return np.random.default_rng([int(self.seed), 27]).standard_normal(4)
+
+    def true_start_state(self) -> np.ndarray:
+        """Where the simulated vehicle really starts (12,): ``start.state`` moved by this seed's draw
+        of ``start.position_std_m`` (north, east)."""
+        x = self.start_state().copy()
+        x[0:2] += self.start.position_std_m * self._truth_draws()[0:2]
+        return x
+
+    def true_dock_offset(self) -> np.ndarray:
+        """Where the simulated dock really is relative to ``dock.position_ned_m`` (3,, NED m): this
+        seed's draw of ``dock.position_std_m`` (north, east; zero down)."""
+        out = np.zeros(3)
+        out[0:2] = self.dock.position_std_m * self._truth_draws()[2:4]
+        return out
 
     def resolved(self) -> dict[str, Any]:
         """The mission with every default filled in, as plain data."""

@@ -12,6 +12,8 @@ code   name                meaning
 5      ``settling``        no controller step: the navigation filter is settling, thrust zero
 6      ``hold``            no controller step: the dock is out of sight (fly's camera); depth
                            and attitude held (auvdock.controllers.hold)
+7      ``lost_target``     no controller step: the guidance gave up finding the dock
+                           (auvdock.loop.guidance); zero thrust, and the run ends
 =====  ==================  ===============================================================
 
 A controller that is not an optimiser reports ``ok``.  Results files store this table as
@@ -28,6 +30,7 @@ __all__ = [
     "STATUS_NO_STEP",
     "STATUS_SETTLING",
     "STATUS_HOLD",
+    "STATUS_LOST_TARGET",
     "STATUS_NAMES",
     "FAILURE_CODES",
 ]
@@ -39,6 +42,7 @@ STATUS_FALLBACK_ZERO = 3
 STATUS_NO_STEP = 4
 STATUS_SETTLING = 5
 STATUS_HOLD = 6
+STATUS_LOST_TARGET = 7
 
 #: Code -> name.
 STATUS_NAMES: dict[int, str] = {
@@ -49,6 +53,7 @@ STATUS_NAMES: dict[int, str] = {
     STATUS_NO_STEP: "no_step",
     STATUS_SETTLING: "settling",
     STATUS_HOLD: "hold",
+    STATUS_LOST_TARGET: "lost_target",
 }
 
 #: The codes that count as solver trouble (``solver_failures`` of a run).

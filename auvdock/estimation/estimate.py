@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -35,6 +36,15 @@ class Estimate:
     current_ned : ndarray (3,) or None
         The estimation stage's own estimate of the current in {n}, m/s (the navigation
         filter's), where it has one.
+    dock_offset_ned : ndarray (3,) or None
+        Where the stage believes the dock is, relative to the mission's dock (its charted
+        position and known motion), NED m: the navigation filter's estimate of the dock's
+        anchor minus the charted one.  None: the mission's dock as it is (Assumption 2).
+    relative_cov : ndarray (3, 3) or None
+        Covariance of the vehicle's position relative to the dock, m^2 (the navigation filter's).
+    dock_fix_t : float or None
+        Sample time (s) of the newest camera fix of the dock the stage has used; None before the
+        first (or without a dock camera).
     """
 
     t: float
@@ -43,7 +53,10 @@ class Estimate:
     flow_ned: np.ndarray | None = None
     flow_sensing: FlowSensing | None = None
     current_ned: np.ndarray | None = None
+    dock_offset_ned: np.ndarray | None = None
+    relative_cov: np.ndarray | None = None
+    dock_fix_t: float | None = None
 
     def without_flow(self) -> Estimate:
         """The same estimate with ``flow_ned`` removed (for controllers that may not read it)."""
-        return Estimate(self.t, self.state, self.state_cov, None, self.flow_sensing, self.current_ned)
+        return dataclasses.replace(self, flow_ned=None)

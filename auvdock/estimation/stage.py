@@ -25,14 +25,19 @@ controller reads a sensor.  Two stages, chosen by the mission's ``estimation``
     squared), which that filter, trusting an accelerometer's 0.0045 m/s^2, turned into a
     drifting current (measured in a loopback flight: its estimate 0.1 m/s off and moving
     while the stage's was within 0.01 m/s);
+  - ``dock_offset_ned``: where the filter places the dock (its anchor, a state of the filter
+    anchored by the camera's fixes, ``sensors.dock_camera``) relative to the mission's dock, with
+    the covariance of the vehicle's position relative to it and the time of the newest fix;
   - ``series`` to record: ``estimated_state`` (12), ``estimated_flow_ned_m_s`` (3),
-    ``estimated_state_std`` (12).
+    ``estimated_state_std`` (12), ``estimated_flow_std_m_s`` (3), ``estimated_dock_position_m``
+    (3, where the filter places the docking point now) and ``relative_position_std_m`` (3).
 
 The same stages run wherever the readings come from (``sim``, ``fly``, ``replay``).
 """
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, Protocol
 
 import casadi as ca
@@ -47,6 +52,7 @@ from auvdock.vehicle.state import ANG, ATT, ETA, LIN, NX
 if TYPE_CHECKING:
     from auvdock.config.mission import Mission
     from auvdock.vehicle import Vehicle
+    from auvdock.world.dock import DockMotion
 
 __all__ = [
     "ESTIMATION_MODES",
@@ -65,6 +71,9 @@ ESTIMATION_SERIES: dict[str, tuple[int, ...]] = {
     "estimated_state": (NX,),
     "estimated_state_std": (NX,),
     "estimated_flow_ned_m_s": (3,),
+    "estimated_flow_std_m_s": (3,),
+    "estimated_dock_position_m": (3,),
+    "relative_position_std_m": (3,),
 }
 
 
@@ -135,15 +144,36 @@ class NavigationStage:
     start_guess : ndarray (12,)
         Where the vehicle is believed to start (the mission's start state, in the mission
         frame); the filter's prior is centred on it.
+    dock : DockMotion, optional
+        The dock as the mission charts it (its ``position_ned_m`` the anchor's prior mean, its
+        motion about it known: the heave); default: a dock at rest at the origin.
+    camera_mount : (R_bc, t_bc), optional
+        The camera mount of the dock readings (default mount if omitted).
     """
 
     mode = "filter"
     series_shapes = ESTIMATION_SERIES
 
     def __init__(
-        self, settings: NavigationSettings, vehicle: Vehicle, dt: float, start_guess: np.ndarray
+        self,
+        settings: NavigationSettings,
+        vehicle: Vehicle,
+        dt: float,
+        start_guess: np.ndarray,
+        *,
+        dock: DockMotion | None = None,
+        camera_mount: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> None:
-        self.filter = NavigationFilter(settings, vehicle, dt)
+        self.dock = dock
+        self.dock_anchor = np.zeros(3) if dock is None else np.asarray(dock.position_ned_m, dtype=float)
+        motion = None
+        if dock is not None:
+            anchor = self.dock_anchor
+
+            def motion(t: float) -> tuple[np.ndarray, np.ndarray]:
+                return np.asarray(dock.position(t), dtype=float) - anchor, np.asarray(dock.velocity(t), float)
+
+        self.filter = NavigationFilter(settings, vehicle, dt, camera_mount=camera_mount, dock_motion=motion)
         self.settle_s = float(settings.settle_s)
         self.dt = float(dt)
         self.start_guess = np.asarray(start_guess, dtype=float).copy()
@@ -160,10 +190,11 @@ class NavigationStage:
 
     def reset(self) -> None:
         """Start a new run: the filter from the start guess, no previous estimate."""
-        self.filter.reset(self.start_guess.copy())
+        self.filter.reset(self.start_guess.copy(), dock_anchor=self.dock_anchor)
         self._prev: tuple[np.ndarray, np.ndarray] | None = None
         self.last: NavEstimate | None = None
         self._t0: float | None = None
+        self.dock_fix_t: float | None = None
 
     def settling(self, t: float) -> bool:
         """Whether the controllers should still hold zero thrust at time ``t`` (s): the filter
@@ -175,6 +206,9 @@ class NavigationStage:
         thrust (n,, N) really applied over the last period; and the series to record."""
         if self._t0 is None:
             self._t0 = float(readings.t)
+        for r in readings.suite:
+            if r.kind == "dock":
+                self.dock_fix_t = max(float(r.t), self.dock_fix_t or -math.inf)
         est = self.filter.step(readings.t, list(readings.suite), u_applied)
         self.last = est
         x = np.asarray(est.state, dtype=float)
@@ -194,6 +228,8 @@ class NavigationStage:
             depth_rate_m_s=float(R[2] @ lin),
             accel_m_s2=accel,
         )
+        assert est.dock_anchor_ned is not None and est.relative_cov is not None
+        offset = est.dock_anchor_ned - self.dock_anchor
         out = Estimate(
             readings.t,
             x.copy(),
@@ -201,17 +237,33 @@ class NavigationStage:
             readings.flow_ned,
             sensing,
             flow_ned.copy(),
+            dock_offset_ned=offset,
+            relative_cov=est.relative_cov.copy(),
+            dock_fix_t=self.dock_fix_t,
         )
+        dock_now = (np.zeros(3) if self.dock is None else np.asarray(self.dock.position(readings.t))) + offset
         series = {
             "estimated_state": x.copy(),
             "estimated_state_std": np.sqrt(np.clip(np.diag(est.state_cov), 0.0, None)),
             "estimated_flow_ned_m_s": flow_ned.copy(),
+            "estimated_flow_std_m_s": np.sqrt(np.clip(np.diag(est.flow_cov), 0.0, None)),
+            "estimated_dock_position_m": dock_now,
+            "relative_position_std_m": np.sqrt(np.clip(np.diag(est.relative_cov), 0.0, None)),
         }
         return out, series
 
 
-def build_estimation(mission: Mission, vehicle: Vehicle) -> EstimationStage:
-    """The estimation stage a mission's ``estimation`` names (one of :data:`ESTIMATION_MODES`)."""
+def build_estimation(mission: Mission, vehicle: Vehicle, dock: DockMotion | None = None) -> EstimationStage:
+    """The estimation stage a mission's ``estimation`` names (one of :data:`ESTIMATION_MODES`);
+    ``dock`` the dock as the mission charts it (for the filter's dock states)."""
     if mission.estimation == "filter":
-        return NavigationStage(mission.navigation, vehicle, mission.controller.dt_s, mission.start_state())
+        mount = mission.camera.mount.build()
+        return NavigationStage(
+            mission.navigation,
+            vehicle,
+            mission.controller.dt_s,
+            mission.start_state(),
+            dock=dock,
+            camera_mount=(mount.R_bc(), mount.t_bc()),
+        )
     return TruthStage()

@@ -19,9 +19,10 @@ from auvdock.config.mission import Mission
 from auvdock.controllers import Controller, ControlOutput, build_controller, resolve_solver
 from auvdock.controllers.registry import CONTROLLERS
 from auvdock.controllers.settings import MPCSettings
-from auvdock.controllers.status import STATUS_SETTLING
+from auvdock.controllers.status import STATUS_LOST_TARGET, STATUS_SETTLING
 from auvdock.estimation.flow_filter import EstimatorSettings
 from auvdock.estimation.stage import EstimationStage, TruthStage, build_estimation
+from auvdock.loop.guidance import GUIDANCE_SERIES, Guidance, GuidanceSettings
 from auvdock.runtime import timing
 from auvdock.runtime.interrupts import SigintDeferred
 from auvdock.sensing.readings import Readings
@@ -48,6 +49,10 @@ class Autopilot:
     estimation : EstimationStage, optional
         The estimation stage (:func:`auvdock.estimation.stage.build_estimation`); default
         :class:`~auvdock.estimation.stage.TruthStage` (``estimation: truth``).
+    guidance : Guidance, optional
+        What the controllers steer to (:mod:`auvdock.loop.guidance`: the dock where the estimate
+        places it; with a dock camera, the approach and the lost-target policy); default: the
+        dock, always.
 
     Attributes
     ----------
@@ -64,15 +69,19 @@ class Autopilot:
         estimator: EstimatorSettings | None = None,
         sensors: SensorSettings | None = None,
         estimation: EstimationStage | None = None,
+        guidance: Guidance | None = None,
     ) -> None:
         t0 = time.perf_counter()
         self.estimation: EstimationStage = TruthStage() if estimation is None else estimation
         self.settings = settings
         self.vehicle = vehicle
         self.dock = dock
+        self.guidance = Guidance(GuidanceSettings(), dock, camera=False) if guidance is None else guidance
         # built whole: CasADi's argument checks clear a KeyboardInterrupt raised inside them
         with SigintDeferred():
-            self.controller: Controller = build_controller(settings, vehicle, dock, estimator, sensors)
+            self.controller: Controller = build_controller(
+                settings, vehicle, self.guidance.target, estimator, sensors
+            )
         self.name = self.controller.name
         self.dt = settings.dt_s
         self.solver = resolve_solver(settings.solver.name, self.name, settings.variant)
@@ -86,6 +95,8 @@ class Autopilot:
         """Extra per-step series this autopilot records (name -> per-row shape)."""
         series = dict(getattr(self.controller, "extra_series", {}))
         series.update(self.estimation.series_shapes)
+        if self.guidance.camera:
+            series.update(GUIDANCE_SERIES)
         return series
 
     @property
@@ -97,6 +108,7 @@ class Autopilot:
         """Start a new run."""
         self.controller.reset()
         self.estimation.reset()
+        self.guidance.reset()
         self.u_prev = np.zeros(self.vehicle.n_thrusters)
         self.u_applied = np.zeros(self.vehicle.n_thrusters)
 
@@ -118,10 +130,16 @@ class Autopilot:
         else:
             with timing.part("estimation"):
                 est, recorded = self.estimation.step(readings, self.u_applied)
-        if self.estimation.settling(readings.t):  # no control on a filter that has not settled
+        steering = self.guidance.update(est)
+        if self.guidance.camera:
+            recorded = {**recorded, **steering}
+        lost = self.guidance.phase == "given_up"
+        if lost or self.estimation.settling(readings.t):  # no control on a filter that has not settled
             nan = {k: np.full(s, np.nan) for k, s in self.extra_series.items() if k not in recorded}
             out = ControlOutput(
-                np.zeros(self.vehicle.n_thrusters), STATUS_SETTLING, series={**nan, **recorded}
+                np.zeros(self.vehicle.n_thrusters),
+                STATUS_LOST_TARGET if lost else STATUS_SETTLING,
+                series={**nan, **recorded},
             )
             out.solve_time_s = time.perf_counter() - t0
             out.time_parts = timing.end()
@@ -147,4 +165,13 @@ def build_autopilot(
     The one way every command (sim, compare, sweep, fly, replay) builds its step.
     """
     m = mission if controller is None else mission.with_controller(controller)
-    return Autopilot(m.controller, vehicle, dock, m.estimator, m.sensors, build_estimation(m, vehicle))
+    camera = m.estimation == "filter" and m.sensors.dock_camera.enabled
+    return Autopilot(
+        m.controller,
+        vehicle,
+        dock,
+        m.estimator,
+        m.sensors,
+        build_estimation(m, vehicle, dock),
+        Guidance(m.guidance, dock, camera),
+    )

@@ -36,7 +36,13 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
-from auvdock.controllers.status import FAILURE_CODES, STATUS_HOLD, STATUS_NAMES, STATUS_NO_STEP
+from auvdock.controllers.status import (
+    FAILURE_CODES,
+    STATUS_HOLD,
+    STATUS_LOST_TARGET,
+    STATUS_NAMES,
+    STATUS_NO_STEP,
+)
 from auvdock.runtime.interrupts import SigintDeferred
 from auvdock.sensing.readings import Readings
 from auvdock.vehicle.actuators import ActuatorCommand, ActuatorPath
@@ -46,6 +52,7 @@ from auvdock.vehicle.state import ATT, LIN, POS, YAW
 if TYPE_CHECKING:
     from auvdock.controllers.base import ControlOutput
     from auvdock.controllers.hold import DepthAttitudeHold
+    from auvdock.loop.guidance import LostTrack
     from auvdock.vehicle import Vehicle
     from auvdock.world.dock_body import Contact
 
@@ -195,9 +202,11 @@ class LoopEnding(Exception):  # noqa: N818 -- an ending, not an error
 class LoopResult:
     """How a closed loop ended.
 
-    ``reason``: docked, captured, collided, timeout, diverged, or a :class:`LoopEnding`'s;
-    ``t_end`` the last instant, s; ``contact`` the state (12,) in which docking (or the
-    collision) was declared; ``touch`` the contact with the dock's body that ended the run.
+    ``reason``: docked, captured, collided, timeout, diverged, lost_target (the guidance gave up
+    finding the dock), or a :class:`LoopEnding`'s; ``t_end`` the last instant, s; ``contact`` the
+    state (12,) in which docking (or the collision) was declared; ``touch`` the contact with the
+    dock's body that ended the run; ``lost_tracks`` the camera's losses of the dock
+    (:class:`auvdock.loop.guidance.LostTrack`; None without a dock camera).
     """
 
     reason: str
@@ -207,6 +216,7 @@ class LoopResult:
     contact: np.ndarray | None = None
     wall_time_s: float = 0.0
     touch: Contact | None = None
+    lost_tracks: list[LostTrack] | None = None
 
 
 @dataclass
@@ -425,6 +435,10 @@ class LoopRecorder:
                 )
                 outcome["contact_speed_m_s"] = float(touch.relative_speed_m_s)
                 outcome["heading_error_rad"] = float(touch.heading_error_rad)
+        if result.lost_tracks is not None:
+            from auvdock.loop.guidance import lost_track_summary
+
+            outcome.update(lost_track_summary(result.lost_tracks))
         if self.flow_errors:
             e = np.asarray(self.flow_errors)
             outcome["flow_rmse_m_s"] = float(np.sqrt(np.mean(e**2)))
@@ -609,6 +623,10 @@ def run_closed_loop(
                     if progress is not None:
                         progress(Progress(t, timeout_s, dist, out.solve_time_s, out.status, k))
                     plant.after_step(out)
+                    if out.status == STATUS_LOST_TARGET:  # the guidance gave up: neutral, the end
+                        plant.apply(t, actuators.neutral())
+                        result = LoopResult("lost_target", f"gave up finding the dock at t = {t:.2f} s", t)
+                        break
                 ok = plant.advance(t, t + dt)
                 t_end = t + dt
                 if not ok:
@@ -618,4 +636,8 @@ def run_closed_loop(
     except LoopEnding as e:
         result = LoopResult(e.reason, e.message, t_end)
     result.wall_time_s = time.perf_counter() - wall0
+    guidance = getattr(autopilot, "guidance", None)
+    if guidance is not None and guidance.camera:
+        guidance.finish(result.t_end, result.reason)
+        result.lost_tracks = list(guidance.events)
     return result

@@ -53,7 +53,8 @@ class SimulatedPlant:
     Parameters
     ----------
     mission : Mission
-        Start state, sensors, estimation, seed, RK4 substeps.
+        Start state (the true one: :meth:`~auvdock.config.mission.Mission.true_start_state`),
+        sensors, estimation, seed, RK4 substeps.
     vehicle : Vehicle
         The one model.
     flow : FlowField
@@ -90,7 +91,7 @@ class SimulatedPlant:
         self.truth = TruthPlant(
             vehicle,
             flow,
-            mission.start_state(),
+            mission.true_start_state(),
             substeps=mission.simulation.substeps,
             dt=self.dt,
             keep_nonfinite=True,
@@ -105,9 +106,9 @@ class SimulatedPlant:
         if contact is not None:
             self.columns["nose_dock_m"] = (3,)
         camera_fix = None
-        if mission.estimation == "filter" and mission.sensors.position.source == "camera_fov":
+        if mission.estimation == "filter" and mission.sensors.dock_camera.enabled:
             if dock is None:
-                raise ValueError("position source camera_fov: the simulated camera needs the dock")
+                raise ValueError("sensors.dock_camera: the simulated camera needs the dock")
             camera_fix = mission.build_camera_fix()
         self.sensors = SimulatedSensors(
             mission.sensors, mission.estimation, vehicle, mission.seed, camera_fix=camera_fix, dock=dock

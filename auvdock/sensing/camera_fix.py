@@ -22,8 +22,12 @@ far smaller -- ``python benchmarks/camera_fix_errors.py`` prints them beside the
 corner noise that would match them (0.02 px for the range, 2026-12-02) -- so the model is the
 cautious one, and stays so until a measurement in water replaces the figure.
 
-The fix is the vehicle's position in NED: the dock's position (known to the mission) plus the
-measured vehicle-to-dock offset; its covariance is rotated from the camera frame to NED.
+The fix is what a camera measures: the dock's docking point in the camera frame (x right, y down,
+z along the optical axis), m -- the measurement ``dock`` of :mod:`auvdock.sensing.measurements`,
+the same formula (:func:`auvdock.vehicle.geometry.point_in_sensor_frame`) -- with its standard
+deviation per camera axis.  The navigation filter estimates the dock's position from it
+(relative navigation); :attr:`CameraFix.position_ned_m` is the vehicle's position it implies for a
+dock whose position is known (the paper's Assumption 2).
 """
 
 from __future__ import annotations
@@ -35,7 +39,7 @@ import numpy as np
 
 from auvdock.camera.layout import MarkerLayout
 from auvdock.camera.model import CameraModel, CameraMount
-from auvdock.vehicle.geometry import rotation_zyx
+from auvdock.vehicle.geometry import point_in_sensor_frame, rotation_zyx
 from auvdock.vehicle.state import POS
 
 __all__ = ["CameraFixModel", "MarkerView", "CameraFix"]
@@ -56,15 +60,20 @@ class MarkerView:
 
 @dataclass(frozen=True)
 class CameraFix:
-    """A fix: the vehicle's position (NED, m), its covariance (3x3, m^2), the markers it used."""
+    """A fix: the dock's docking point measured in the camera frame (3,, m; x right, y down, z
+    along the optical axis), its standard deviation per camera axis (3,, m), the markers it used,
+    and the vehicle's position (NED, m) with its covariance (3x3, m^2) that it implies for the dock
+    where it truly is (what a dock known to the vehicle, the paper's Assumption 2, makes of it)."""
 
+    dock_camera_m: np.ndarray
+    std_camera_m: np.ndarray
+    marker_ids: tuple[int, ...]
     position_ned_m: np.ndarray
     covariance_ned_m2: np.ndarray
-    marker_ids: tuple[int, ...]
 
     @property
     def std_ned_m(self) -> np.ndarray:
-        """Per-axis standard deviation (3,), m."""
+        """Per-axis standard deviation of the implied position (3,), m."""
         return np.sqrt(np.diag(self.covariance_ned_m2))
 
 
@@ -127,8 +136,8 @@ class CameraFixModel:
         R_bc = self.mount.R_bc()
         R_nc = R_nb @ R_bc
         R_cd = R_nc.T @ R_nd
-        t_cd = R_bc.T @ (
-            R_nb.T @ (np.asarray(dock_position_ned, float) - np.asarray(eta[POS], float)) - self.mount.t_bc()
+        t_cd = point_in_sensor_frame(
+            R_nb, np.asarray(eta[POS], float), np.asarray(dock_position_ned, float), R_bc, self.mount.t_bc()
         )
         return R_cd, t_cd, R_nc
 
@@ -208,8 +217,11 @@ class CameraFixModel:
         drop = rng.uniform() < self.dropout
         if cov_c is None or drop:
             return None
-        _, _, R_nc = self._dock_in_camera(x[0:6], dock_position_ned, dock_heading_rad)
+        _, t_cd, R_nc = self._dock_in_camera(x[0:6], dock_position_ned, dock_heading_rad)
+        std_c = np.sqrt(np.diag(cov_c))
+        noise_c = std_c * rng.standard_normal(3)
         cov_n = R_nc @ cov_c @ R_nc.T
-        noise = R_nc @ (np.sqrt(np.diag(cov_c)) * rng.standard_normal(3))
-        pos = np.asarray(x[POS], dtype=float) + noise
-        return CameraFix(pos, cov_n, tuple(v.marker_id for v in views if v.seen))
+        # the dock measured noise_c away from where it is: the vehicle then seems -noise_c away
+        pos = np.asarray(x[POS], dtype=float) - R_nc @ noise_c
+        ids = tuple(v.marker_id for v in views if v.seen)
+        return CameraFix(t_cd + noise_c, std_c, ids, pos, cov_n)

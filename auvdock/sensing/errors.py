@@ -83,6 +83,12 @@ def _dvl(s: SensorSettings) -> SensorErrors:
     return SensorErrors("dvl", d.rate_hz, d.latency_s, np.full(3, d.std_m_s), None, d.enabled)
 
 
+def _dock(s: SensorSettings) -> SensorErrors:
+    # the noise of each fix comes from the camera's geometry (auvdock.sensing.camera_fix): none here
+    c = s.dock_camera
+    return SensorErrors("dock", c.rate_hz, c.latency_s, np.zeros(3), None, c.enabled)
+
+
 #: Every sensor kind and how its errors follow from the settings, in the order channels are built
 #: (and biases drawn).
 SENSORS: dict[str, Callable[[SensorSettings], SensorErrors]] = {
@@ -92,6 +98,7 @@ SENSORS: dict[str, Callable[[SensorSettings], SensorErrors]] = {
     "depth": _depth,
     "position": _position,
     "dvl": _dvl,
+    "dock": _dock,
 }
 
 

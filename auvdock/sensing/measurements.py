@@ -20,7 +20,15 @@ accel       3    specific force in {b} as an IMU measures it, m/s^2:
 depth       1    x[POS][2], the pressure sensor's depth (NED down), m
 position    3    x[POS] in the mission's NED frame (acoustic positioning, camera, motion capture), m
 dvl         3    x[LIN]: velocity over ground in {b} (bottom lock), m/s
+dock        3    the dock's docking point in the camera frame (x right, y down, z along the
+                 optical axis), m: ``R_bc^T (R(Theta)^T (p_dock - x[POS]) - t_bc)`` with the
+                 camera mount ``(R_bc, t_bc)`` (:func:`auvdock.vehicle.geometry.point_in_sensor_frame`);
+                 the camera's fix of the dock's markers (:mod:`auvdock.sensing.camera_fix`)
 ==========  ===  ==========================================================================
+
+``dock`` needs the dock's position and the camera mount besides the state
+(:func:`expression`'s ``dock``); the simulated camera computes it with the same formula in
+numpy.
 
 The IMU sits at the body origin (no lever arm); the flow's rate of change along the path is
 taken as zero in ``accel`` (a current constant in {n}).
@@ -34,6 +42,7 @@ from typing import TYPE_CHECKING
 import casadi as ca
 import numpy as np
 
+from auvdock.vehicle.geometry import point_in_sensor_frame
 from auvdock.vehicle.model import Smtrx, Sym, VehicleModel
 from auvdock.vehicle.state import ANG, ATT, LIN, NX, POS
 from auvdock.world.constants import GRAVITY_M_S2
@@ -47,7 +56,15 @@ __all__ = ["KINDS", "GRAVITY", "ANGLE_ROWS", "expression", "h", "measure"]
 GRAVITY = GRAVITY_M_S2
 
 #: Every measurement kind and its dimension.
-KINDS: dict[str, int] = {"attitude": 3, "gyro": 3, "accel": 3, "depth": 1, "position": 3, "dvl": 3}
+KINDS: dict[str, int] = {
+    "attitude": 3,
+    "gyro": 3,
+    "accel": 3,
+    "depth": 1,
+    "position": 3,
+    "dvl": 3,
+    "dock": 3,
+}
 
 #: Per kind, the rows of its value that are angles (residuals wrapped to [-pi, pi)).
 ANGLE_ROWS: dict[str, tuple[int, ...]] = {"attitude": (0, 1, 2)}
@@ -60,12 +77,26 @@ def _check_kind(kind: str) -> None:
         raise KeyError(f"unknown measurement kind {kind!r} (known: {', '.join(KINDS)})")
 
 
-def expression(kind: str, model: VehicleModel, x: Sym, u: Sym, flow_ned: Sym) -> Sym:
+def expression(
+    kind: str,
+    model: VehicleModel,
+    x: Sym,
+    u: Sym,
+    flow_ned: Sym,
+    dock: tuple[Sym, np.ndarray, np.ndarray] | None = None,
+) -> Sym:
     """Symbolic value of measurement ``kind`` (``KINDS[kind]`` x 1) from CasADi ``x``, ``u``, ``flow_ned``.
 
     ``model`` is the :class:`~auvdock.vehicle.model.VehicleModel`.  Works on SX and MX.
+    ``dock`` = ``(p_dock (3, NED m), R_bc (3, 3), t_bc (3,, m))``: the dock's docking point and the
+    camera mount, for kind ``dock`` (required there, ignored elsewhere).
     """
     _check_kind(kind)
+    if kind == "dock":
+        if dock is None:
+            raise ValueError("measurement dock: needs the dock's position and the camera mount")
+        p_dock, R_bc, t_bc = dock
+        return point_in_sensor_frame(model.rotation(x[0:6]), x[POS], p_dock, ca.DM(R_bc), ca.DM(t_bc))
     if kind == "attitude":
         return x[ATT]
     if kind == "gyro":
@@ -85,8 +116,11 @@ def expression(kind: str, model: VehicleModel, x: Sym, u: Sym, flow_ned: Sym) ->
 
 
 def h(kind: str, vehicle: Vehicle) -> ca.Function:
-    """``h_kind``: (x[12], u[n], flow_ned[3]) -> y[KINDS[kind]], a CasADi SX function, cached per vehicle."""
+    """``h_kind``: (x[12], u[n], flow_ned[3]) -> y[KINDS[kind]], a CasADi SX function, cached per vehicle
+    (not for ``dock``, which needs the dock and the camera mount: :func:`expression`)."""
     _check_kind(kind)
+    if kind == "dock":
+        raise ValueError("measurement dock: needs the dock's position and the camera mount (use expression)")
     per_vehicle = _CACHE.setdefault(vehicle, {})
     if kind not in per_vehicle:
         x = ca.SX.sym("x", NX)

@@ -7,7 +7,7 @@ Two ways of knowing the vehicle's state, chosen by the mission's ``estimation``:
   the noise levels of the top-level fields of :class:`SensorSettings`, simulated by
   :class:`SensorModel`.
 * ``filter`` (what a BlueROV2 really knows): the sensor suite of :class:`SensorSettings`
-  (``imu``, ``ahrs``, ``depth``, ``position``, ``dvl``; defaults from the manufacturers'
+  (``imu``, ``ahrs``, ``depth``, ``position``, ``dvl``, ``dock_camera``; defaults from the manufacturers'
   figures, each with its source) is simulated by :class:`SensorSuite` as asynchronous
   :class:`auvdock.estimation.navigation_filter.Reading` s, one definition per measurement
   (:mod:`auvdock.sensing.measurements`), and the navigation filter
@@ -33,7 +33,7 @@ __all__ = [
     "PositionSettings",
     "DvlSettings",
     "POSITION_SOURCES",
-    "CameraFovSettings",
+    "DockCameraSettings",
 ]
 
 
@@ -118,21 +118,29 @@ POSITION_SOURCES: dict[str, tuple[float, float, float, str]] = {
         0.001,
         "underwater motion capture in a tank (assumed 1 mm, 10 ms)",
     ),
-    "camera_fov": (
-        15.0,
-        0.1,
-        0.01,
-        "the dock's markers through the mission's camera with its field of view, the water's "
-        "visibility, a smallest decodable marker and dropouts (auvdock.sensing.camera_fix): a fix "
-        "only when markers are seen, its noise from the geometry (the std here is not used); 15 Hz "
-        "as the synthetic camera, 0.1 s latency (fly measured 98 ms median)",
-    ),
 }
 
 
-class CameraFovSettings(Strict):
-    """position.source camera_fov: what the camera can see of the dock's markers."""
+class DockCameraSettings(Strict):
+    """The front camera's fixes of the dock's markers, as a sensor of the simulated suite.
 
+    With ``enabled`` the suite (``estimation: filter``) delivers a reading of kind ``dock`` --
+    the dock's docking point in the camera frame (:mod:`auvdock.sensing.measurements`) -- for every
+    frame in which the camera sees at least one of the dock's markers whole
+    (:mod:`auvdock.sensing.camera_fix`: field of view, range, the water's visibility, marker size
+    and obliquity), its noise from the geometry; none otherwise.  The navigation filter then
+    estimates the dock's position as a state, anchored by these fixes (relative navigation).
+    """
+
+    enabled: bool = Field(
+        default=False,
+        description="the camera's fixes of the dock's markers are a sensor (relative navigation: the "
+        "dock's position becomes a state of the navigation filter)",
+    )
+    rate_hz: PosFloat = Field(default=15.0, description="frames per second, Hz (the synthetic camera's)")
+    latency_s: NonNegFloat = Field(
+        default=0.1, description="capture to fix, s (fly measured 98 ms median on the 2-core machine)"
+    )
     visibility_m: PosFloat = Field(
         default=8.0,
         description="range beyond which the water hides a marker, m (turbidity; assumed: clear coastal "
@@ -159,15 +167,12 @@ class CameraFovSettings(Strict):
 class PositionSettings(Strict):
     """Where position fixes come from; rate, latency and noise default to the source's figures."""
 
-    source: Literal["none", "acoustic", "dvl_dead_reckoning", "camera", "motion_capture", "camera_fov"] = (
-        Field(
-            default="camera",
-            description="none, acoustic, dvl_dead_reckoning, camera (an ideal fix at any range and angle), "
-            "motion_capture or camera_fov (the dock's markers as a camera sees them: field of view, range, "
-            "visibility, dropouts)",
-        )
+    source: Literal["none", "acoustic", "dvl_dead_reckoning", "camera", "motion_capture"] = Field(
+        default="camera",
+        description="none, acoustic, dvl_dead_reckoning, camera (an ideal fix of the vehicle's position at "
+        "any range and angle: an idealisation) or motion_capture; the dock camera as a camera really "
+        "sees is sensors.dock_camera",
     )
-    camera_fov: CameraFovSettings = Field(default_factory=CameraFovSettings)
     rate_hz: PosFloat | None = Field(default=None, description="fixes per second, Hz (default: the source's)")
     latency_s: NonNegFloat | None = Field(default=None, description="fix to use, s (default: the source's)")
     std_m: NonNegFloat | None = Field(
@@ -199,8 +204,8 @@ class DvlSettings(Strict):
 
 class SensorSettings(Strict):
     """The sensors.  The top-level noise levels are the paper's sensing of [eta; nu_r] for
-    ``estimation: truth``; ``imu``, ``ahrs``, ``depth``, ``position`` and ``dvl`` are the
-    BlueROV2's sensor suite, read by the navigation filter with ``estimation: filter``."""
+    ``estimation: truth``; ``imu``, ``ahrs``, ``depth``, ``position``, ``dvl`` and ``dock_camera``
+    are the BlueROV2's sensor suite, read by the navigation filter with ``estimation: filter``."""
 
     position_std_m: NonNegFloat = Field(default=0.002, description="pose position noise, m")
     attitude_std_rad: NonNegFloat = Field(default=0.002, description="pose attitude noise, rad")
@@ -216,3 +221,4 @@ class SensorSettings(Strict):
     depth: DepthSettings = Field(default_factory=DepthSettings)
     position: PositionSettings = Field(default_factory=PositionSettings)
     dvl: DvlSettings = Field(default_factory=DvlSettings)
+    dock_camera: DockCameraSettings = Field(default_factory=DockCameraSettings)

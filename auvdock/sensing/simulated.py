@@ -116,8 +116,8 @@ class SensorSuite:
     seed : int
         Seed of biases and noise.
     camera_fix : CameraFixModel, optional
-        With ``position.source: camera_fov``, the position fixes are this camera's
-        (:mod:`auvdock.sensing.camera_fix`): only when it sees the markers of ``dock``.
+        With ``dock_camera.enabled``, the camera (:mod:`auvdock.sensing.camera_fix`) whose fixes of
+        ``dock`` are the readings of kind ``dock``: only when it sees the dock's markers.
     dock : DockMotion, optional
         The true dock the camera looks at.
     """
@@ -133,10 +133,12 @@ class SensorSuite:
     ) -> None:
         self.vehicle = vehicle
         self.rng = np.random.default_rng([int(seed), 15])
-        self.camera_fix = camera_fix if settings.position.source == "camera_fov" else None
+        self.camera_fix = camera_fix if settings.dock_camera.enabled else None
         self.dock = dock
-        if self.camera_fix is not None and dock is None:
-            raise ValueError("position source camera_fov: the camera needs the dock it looks at")
+        if settings.dock_camera.enabled and (camera_fix is None or dock is None):
+            raise ValueError(
+                "sensors.dock_camera: the simulated camera needs its model and the dock it looks at"
+            )
         chans = []
         for err in sensor_errors(settings).values():
             if not err.enabled:
@@ -154,12 +156,12 @@ class SensorSuite:
 
         out = []
         for c in self.channels:
-            if t + 1e-9 >= c.next_sample and c.kind == "position" and self.camera_fix is not None:
+            if t + 1e-9 >= c.next_sample and c.kind == "dock":
                 # the camera's fix: only when it sees the dock's markers, its noise from the geometry
-                assert self.dock is not None
+                assert self.dock is not None and self.camera_fix is not None
                 fix = self.camera_fix.fix(x, self.dock.position(t), self.dock.heading_rad, self.rng)
                 if fix is not None:
-                    c.pending.append(Reading(c.kind, t, fix.position_ned_m, fix.std_ned_m))
+                    c.pending.append(Reading(c.kind, t, fix.dock_camera_m, fix.std_camera_m))
                 c.next_sample = max(c.next_sample + c.period, t + 0.5 * c.period)
             elif t + 1e-9 >= c.next_sample:
                 value = measure(c.kind, self.vehicle, x, u_prev, flow_ned)
@@ -187,7 +189,7 @@ class SimulatedSensors:
     seed : int
         The mission's seed.
     camera_fix, dock : CameraFixModel, DockMotion, optional
-        For ``position.source: camera_fov``: the camera model and the true dock it looks at.
+        For ``sensors.dock_camera``: the camera model and the true dock it looks at.
     """
 
     def __init__(

@@ -2,7 +2,8 @@
 
 The symbolic twins used inside the vehicle model (``Rzyx``, ``Smtrx``) are in
 :mod:`auvdock.vehicle.model`; these serve numeric code outside CasADi (simulated sensors,
-the vehicle simulator, camera geometry, fly's frame mapping).  Conventions as in Fossen
+the vehicle simulator, camera geometry, fly's frame mapping).  :func:`point_in_sensor_frame`
+is written with ``@`` and ``.T`` only, so the same formula serves numpy and CasADi.  Conventions as in Fossen
 (2021), *Handbook of Marine Craft Hydrodynamics and Motion Control*, 2nd ed., ch. 2.
 """
 
@@ -12,7 +13,7 @@ import math
 
 import numpy as np
 
-__all__ = ["wrap_angle", "rotation_zyx", "Rz", "skew"]
+__all__ = ["wrap_angle", "rotation_zyx", "Rz", "skew", "point_in_sensor_frame"]
 
 
 def wrap_angle(angle: float) -> float:
@@ -46,3 +47,27 @@ def Rz(yaw: float) -> np.ndarray:
 def skew(a: np.ndarray) -> np.ndarray:
     """S(a), the 3x3 skew-symmetric matrix with ``S(a) b = a x b`` (numeric ``Smtrx``)."""
     return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+
+
+def point_in_sensor_frame(R_nb, p_nb, point_n, R_bs, t_bs):  # noqa: ANN001, ANN201 -- numpy or CasADi
+    """A point of {n} in the frame {s} of a sensor on the body: ``R_bs^T (R_nb^T (point_n - p_nb) - t_bs)``.
+
+    Parameters
+    ----------
+    R_nb : (3, 3)
+        Body attitude, {b} -> {n} (``rotation_zyx`` of the Euler angles).
+    p_nb : (3,)
+        Body origin in {n}, m.
+    point_n : (3,)
+        The point in {n}, m (the dock's docking point, for the camera's fix).
+    R_bs : (3, 3)
+        Sensor axes in {b} (:meth:`auvdock.camera.model.CameraMount.R_bc` for the camera).
+    t_bs : (3,)
+        Sensor origin in {b}, m.
+
+    numpy arrays or CasADi expressions (the navigation filter's measurement model): the one
+    formula of the camera's relative fix, for the simulated camera
+    (:mod:`auvdock.sensing.camera_fix`), the filter (:mod:`auvdock.sensing.measurements`, kind
+    ``dock``) and :func:`auvdock.camera.model.camera_from_dock`.
+    """
+    return R_bs.T @ (R_nb.T @ (point_n - p_nb) - t_bs)

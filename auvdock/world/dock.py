@@ -30,6 +30,11 @@ class DockMotion(Protocol):
     @property
     def heading_rad(self) -> float: ...
 
+    @property
+    def position_ned_m(self) -> tuple[float, float, float]:
+        """The dock's anchor: the point its motion is about (the docking point's mean), NED m."""
+        ...
+
     def position(self, t: float | np.ndarray) -> np.ndarray: ...
 
     def velocity(self, t: float | np.ndarray) -> np.ndarray: ...
@@ -180,6 +185,12 @@ class TrackedDock:
     @property
     def heading_rad(self) -> float:
         return self.model.heading_rad
+
+    @property
+    def position_ned_m(self) -> tuple[float, float, float]:
+        """The model's mean position moved by the measured offset (NED, m)."""
+        n, e, d = np.asarray(self.model.position_ned_m, dtype=float) + self.offset
+        return float(n), float(e), float(d)
 
     def position(self, t: float | np.ndarray) -> np.ndarray:
         """Dock position (NED, m) at time(s) t (s), shape (..., 3)."""

@@ -70,7 +70,8 @@ class WecDock(TranslatingDock):
         if not np.all(np.isfinite(rao)):
             raise ValueError("heave_rao: values must be finite")
         self.sea = sea
-        self.position_ned_m = tuple(float(v) for v in position_ned_m)
+        n0, e0, d0 = (float(v) for v in position_ned_m)
+        self.position_ned_m: tuple[float, float, float] = (n0, e0, d0)
         self.heading_rad = float(heading_rad)
         self.heave_rao = rao
         self.label = label

@@ -1,0 +1,295 @@
+"""What the controllers steer to, and what they do when the camera loses the dock.
+
+Between the estimation stage and the controller (:class:`auvdock.loop.autopilot.Autopilot`), the
+guidance turns the estimate into the target every controller tracks: a
+:class:`SteeringTarget`, the dock's motion as the mission charts it, moved to where the
+navigation filter places the dock (its anchor, anchored by the camera's fixes) and, in some
+phases, to a standoff point in front of the dock's entry or turned away from its heading.
+The controllers track it as they track a dock (position, velocity and heading over the
+horizon), so the same policy serves every controller, in ``sim``, ``fly`` and ``replay``.
+
+With a dock camera (``sensors.dock_camera``, ``estimation: filter``) the guidance is a small
+state machine on the age of the newest camera fix (:class:`Guidance`; the settings are the
+mission's ``guidance`` section, :class:`GuidanceSettings`):
+
+==========  ==========================================================================
+phase       what the controllers steer to
+==========  ==========================================================================
+transit     the dock has never been seen: the standoff point ``standoff_m`` in front of
+            the dock's entry, on its axis, at the dock's heading, by dead reckoning (the
+            camera then looks along the axis at the dock's markers)
+search      at the standoff point (within ``arrive_m``, by the estimate) and nothing seen:
+            the standoff point while the heading sweeps ``+- search_yaw_deg`` about the
+            dock's, period ``search_period_s``
+align       seen, but not yet in the entry tube (in front of the entry, within ``arrive_m``
+            of the dock's axis, no farther than the standoff point): the standoff point
+approach    in the entry tube, a fix within :data:`FRESH_FIX_S`: the dock itself
+coast       approaching, no fix for up to ``coast_s``: the dock, on the filter's prediction
+back_off    no fix for longer: the standoff point (moving back widens what the camera
+            covers), at the dock's heading; arrived there and still nothing: search
+given_up    no fix for ``give_up_s`` (or never, ``give_up_s`` after the start): the
+            controller step reports ``lost_target`` with zero thrust and the run ends
+==========  ==========================================================================
+
+A fix in any phase returns to ``approach``.  Every loss (a fix older than ``coast_s``) is a
+:class:`LostTrack` event with how it ended: re-acquired (in which phase, after how long) or
+not at all (the run ended).  Without a dock camera the guidance steers to the dock all the
+time (the paper's Assumption 2, or absolute positioning).
+
+Frames: NED positions (m), headings clockwise from north (rad), times on the mission clock (s).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Annotated
+
+import numpy as np
+from pydantic import Field
+
+from auvdock.config.schema import PosFloat, Strict
+from auvdock.world.dock import TranslatingDock
+
+if TYPE_CHECKING:
+    from auvdock.estimation.estimate import Estimate
+    from auvdock.world.dock import DockMotion
+
+__all__ = [
+    "GUIDANCE_PHASES",
+    "GUIDANCE_SERIES",
+    "GuidanceSettings",
+    "SteeringTarget",
+    "LostTrack",
+    "Guidance",
+    "lost_track_summary",
+]
+
+#: ``guidance_phase`` codes recorded per step (index into this tuple).
+GUIDANCE_PHASES = ("approach", "transit", "search", "align", "coast", "back_off", "given_up")
+#: A fix at most this old (s) is fresh: ``approach``; older, up to ``coast_s``: ``coast`` (four
+#: frames of the 15 Hz camera missed).
+FRESH_FIX_S = 0.25
+#: Per-step series the guidance records (name -> per-row shape).
+GUIDANCE_SERIES: dict[str, tuple[int, ...]] = {"guidance_phase": (), "dock_fix_age_s": ()}
+
+
+class GuidanceSettings(Strict):
+    """The mission's ``guidance`` section: the approach and the lost-target policy (with a dock camera)."""
+
+    standoff_m: PosFloat = Field(
+        default=1.5,
+        description="the standoff point's distance in front of the docking point, on the dock's axis, m "
+        "(at 1.5 m the default camera sees the whole marker panel, its 0.15 m marker 38 px wide)",
+    )
+    arrive_m: PosFloat = Field(
+        default=0.3,
+        description="within this distance of the standoff point (by the estimate) it is reached, and the "
+        "final approach starts within this distance of the dock's axis, m",
+    )
+    coast_s: PosFloat = Field(
+        default=1.0, description="no camera fix for this long: stop flying on the prediction and back off, s"
+    )
+    search_yaw_deg: Annotated[float, Field(gt=0, le=180)] = Field(
+        default=45.0, description="the search's heading sweep about the dock's heading, +- deg"
+    )
+    search_period_s: PosFloat = Field(default=20.0, description="period of one search sweep, s")
+    give_up_s: PosFloat = Field(
+        default=45.0,
+        description="no camera fix for this long (or none this long after the start): give up, zero "
+        "thrust, the run ends (reason lost_target), s",
+    )
+
+
+class SteeringTarget(TranslatingDock):
+    """The target the controllers track: a dock's motion, moved and turned by the guidance.
+
+    ``position(t) = dock.position(t) + offset + R_z(heading) (-standoff, 0, 0)``, its velocity
+    the dock's, its heading the dock's plus ``yaw_offset_rad``.  ``offset`` (3,, NED m) is
+    where the estimation stage places the dock relative to the mission's; ``standoff_m`` (m)
+    moves the target in front of the dock's entry along its axis.
+
+    Parameters
+    ----------
+    dock : DockMotion
+        The dock as the mission charts it (the paper's sinusoid, or a WEC buoy's heave).
+    """
+
+    def __init__(self, dock: DockMotion) -> None:
+        self.dock = dock
+        self.offset = np.zeros(3)
+        self.standoff_m = 0.0
+        self.yaw_offset_rad = 0.0
+
+    @property
+    def heading_rad(self) -> float:  # type: ignore[override]
+        """The heading to hold at the target, rad."""
+        return float(self.dock.heading_rad) + self.yaw_offset_rad
+
+    @property
+    def position_ned_m(self) -> tuple[float, float, float]:
+        """The target's anchor: the dock's, moved as the target is (NED, m)."""
+        n, e, d = np.asarray(self.dock.position_ned_m, dtype=float) + self._shift()
+        return float(n), float(e), float(d)
+
+    def _shift(self) -> np.ndarray:
+        psi = float(self.dock.heading_rad)
+        return self.offset - self.standoff_m * np.array([math.cos(psi), math.sin(psi), 0.0])
+
+    def position(self, t: float | np.ndarray) -> np.ndarray:
+        """The target's position (NED, m) at time(s) ``t`` (s), shape (..., 3)."""
+        return np.asarray(self.dock.position(t), dtype=float) + self._shift()
+
+    def velocity(self, t: float | np.ndarray) -> np.ndarray:
+        """The target's velocity (NED, m/s): the dock's."""
+        return np.asarray(self.dock.velocity(t), dtype=float)
+
+    def dock_position(self, t: float) -> np.ndarray:
+        """Where the estimation stage places the docking point at ``t`` (NED, m)."""
+        return np.asarray(self.dock.position(t), dtype=float) + self.offset
+
+
+@dataclass
+class LostTrack:
+    """One loss of the dock: the camera's last fix before it (s), when the loss began (s: the
+    fix became older than ``coast_s``), when it ended (s; None while it lasts), and how
+    (``reacquired in PHASE``, or what ended the run)."""
+
+    last_fix_t: float
+    t_lost: float
+    t_end: float | None = None
+    ended: str = ""
+
+    @property
+    def duration_s(self) -> float:
+        """Seconds without a fix, from the last fix to the end of the loss (NaN while it lasts)."""
+        return math.nan if self.t_end is None else self.t_end - self.last_fix_t
+
+
+class Guidance:
+    """The guidance of one run (see the module docstring).
+
+    Parameters
+    ----------
+    settings : GuidanceSettings
+        The mission's ``guidance``.
+    dock : DockMotion
+        The dock as the mission charts it.
+    camera : bool
+        The vehicle finds the dock with its camera (``sensors.dock_camera`` with ``estimation:
+        filter``); False: steer to the dock all the time.
+    """
+
+    def __init__(self, settings: GuidanceSettings, dock: DockMotion, camera: bool) -> None:
+        self.settings = settings
+        self.camera = bool(camera)
+        self.target = SteeringTarget(dock)
+        self.reset()
+
+    def reset(self) -> None:
+        """Start a new run: nothing seen yet."""
+        self.phase = "transit" if self.camera else "approach"
+        self.target.offset = np.zeros(3)
+        self.target.standoff_m = self.settings.standoff_m if self.camera else 0.0
+        self.target.yaw_offset_rad = 0.0
+        self.events: list[LostTrack] = []
+        self._search_t0: float | None = None
+        self._last_fix: float | None = None
+
+    def _set(self, phase: str, t: float) -> None:
+        s = self.settings
+        if phase == "search" and self.phase != "search":
+            self._search_t0 = t
+        self.phase = phase
+        self.target.standoff_m = s.standoff_m if phase in ("transit", "search", "align", "back_off") else 0.0
+        if phase == "search":
+            assert self._search_t0 is not None
+            w = 2.0 * math.pi / s.search_period_s
+            self.target.yaw_offset_rad = math.radians(s.search_yaw_deg) * math.sin(w * (t - self._search_t0))
+        else:
+            self.target.yaw_offset_rad = 0.0
+
+    def update(self, est: Estimate) -> dict[str, np.ndarray]:
+        """Move the target for the estimate ``est`` of one instant; the series to record."""
+        t = float(est.t)
+        if est.dock_offset_ned is not None:
+            self.target.offset = np.asarray(est.dock_offset_ned, dtype=float).copy()
+        if not self.camera:
+            return {"guidance_phase": np.asarray(0.0), "dock_fix_age_s": np.asarray(math.nan)}
+        s = self.settings
+        fix = est.dock_fix_t
+        age = math.inf if fix is None else t - fix
+        if fix is not None and (self._last_fix is None or fix > self._last_fix):
+            if self.events and self.events[-1].t_end is None:  # a loss ends: re-acquired
+                ev = self.events[-1]
+                ev.t_end, ev.ended = fix, f"reacquired in {self.phase}"
+            self._last_fix = fix
+        if self.phase == "given_up":
+            phase = "given_up"
+        elif fix is None:  # never seen
+            if t > s.give_up_s:
+                phase = "given_up"
+            elif self.phase == "transit" and self._at_standoff(est):
+                phase = "search"
+            else:
+                phase = self.phase
+        elif age <= s.coast_s:
+            if self.phase in ("approach", "coast") or self._in_entry(est):
+                phase = "approach" if age <= FRESH_FIX_S else "coast"
+            else:
+                phase = "align"
+        else:  # seen before, lost now
+            phase = self.phase
+            if self.phase in ("approach", "coast", "align", "transit"):
+                self.events.append(LostTrack(fix, fix + s.coast_s))
+                phase = "back_off"
+            if age > s.give_up_s:
+                self._close_loss(t, "given up")
+                phase = "given_up"
+            elif phase == "back_off" and self._at_standoff(est):
+                phase = "search"
+        self._set(phase, t)
+        return {
+            "guidance_phase": np.asarray(float(GUIDANCE_PHASES.index(self.phase))),
+            "dock_fix_age_s": np.asarray(age if math.isfinite(age) else math.nan),
+        }
+
+    def _at_standoff(self, est: Estimate) -> bool:
+        p = np.asarray(est.state[0:3], dtype=float)
+        return float(np.linalg.norm(p - self.target.position(float(est.t)))) <= self.settings.arrive_m
+
+    def _in_entry(self, est: Estimate) -> bool:
+        """The vehicle (by the estimate) is in the entry tube: in front of the dock's entry, no
+        farther than the standoff point (plus ``arrive_m``), within ``arrive_m`` of the axis."""
+        t = float(est.t)
+        psi = float(self.target.dock.heading_rad)
+        rel = np.asarray(est.state[0:3], dtype=float) - self.target.dock_position(t)
+        along = rel[0] * math.cos(psi) + rel[1] * math.sin(psi)  # dock x: ahead of the entry < 0
+        across = math.hypot(-rel[0] * math.sin(psi) + rel[1] * math.cos(psi), rel[2])
+        s = self.settings
+        return -(s.standoff_m + s.arrive_m) <= along < 0.0 and across <= s.arrive_m
+
+    def _close_loss(self, t: float, how: str) -> None:
+        if self.events and self.events[-1].t_end is None:
+            self.events[-1].t_end, self.events[-1].ended = t, how
+
+    def finish(self, t: float, how: str) -> None:
+        """The run ended at ``t`` (s) by ``how`` (captured, collided, timeout, ...): a loss still
+        open ends with it."""
+        self._close_loss(t, f"not reacquired ({how})")
+
+
+def lost_track_summary(events: list[LostTrack]) -> dict[str, object]:
+    """Outcome figures of a run's losses: their number, how many were re-acquired, the longest
+    gap (s), and how each ended (``"3.20-4.85 s: reacquired in back_off; ..."``)."""
+    back = [e for e in events if e.ended.startswith("reacquired")]
+    longest = max((e.duration_s for e in events if e.t_end is not None), default=math.nan)
+    return {
+        "lost_track_events": len(events),
+        "lost_track_reacquired": len(back),
+        "lost_track_longest_s": float(longest),
+        "lost_track_log": "; ".join(
+            f"{e.last_fix_t:.2f}-{'' if e.t_end is None else f'{e.t_end:.2f}'} s: {e.ended or 'open'}"
+            for e in events
+        ),
+    }
