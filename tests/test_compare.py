@@ -367,7 +367,7 @@ def test_unknown_controller_exits_2(tmp_path) -> None:
     assert res.exit_code == 2
     assert res.stderr.strip() == (
         "error: --controllers: unknown controller 'magic' "
-        "(known: naive, kinematic, oracle, sequential, optimized)"
+        "(known: naive, kinematic, oracle, sequential, optimized, ce)"
     )
 
 

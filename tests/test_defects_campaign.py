@@ -208,7 +208,7 @@ def test_figures_take_names_order_and_colours_from_the_registry() -> None:
     # the committed figures' identity, unchanged
     assert plots.CONTROLLER_COLORS == {
         "naive": "#D55E00", "kinematic": "#E69F00", "oracle": "#009E73", "sequential": "#0072B2",
-        "optimized": "#CC79A7",
+        "optimized": "#CC79A7", "ce": "#000000",
     }  # fmt: skip
     assert plots.controller_label("oracle@paper") == "oracle@paper"  # variants: shown by their spec
     assert plots._controller_linestyle("oracle", 7) == (0, (5, 2))

@@ -129,7 +129,7 @@ def test_overrides_clear_the_alternative_field(mission_of: list) -> None:
         (
             {"controller": "nope"},
             "simulate: controller.type: unknown controller 'nope' "
-            "(known: naive, kinematic, oracle, sequential, optimized)",
+            "(known: naive, kinematic, oracle, sequential, optimized, ce)",
         ),
     ],
     ids=[

@@ -180,7 +180,7 @@ def test_cli_sim_bad_controller_exit_2(tmp_path: Path) -> None:
     assert res.exit_code == 2
     assert (
         res.stderr.strip() == "error: --controller: unknown controller 'magic' "
-        "(known: naive, kinematic, oracle, sequential, optimized)"
+        "(known: naive, kinematic, oracle, sequential, optimized, ce)"
     )
 
 

@@ -71,7 +71,7 @@ def bench_rows(
     from auvdock.loop.simulation import simulate
 
     if controllers is None:
-        controllers = controller_names()
+        controllers = controller_names(paper_only=True)
     d = default_missions_dir()
     rows = []
     for case in cases:

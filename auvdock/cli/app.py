@@ -150,8 +150,8 @@ def split_list(values: list[str] | None) -> list[str]:
 
 
 def controller_list(controllers: list[str] | None, variants: bool = False) -> list[str]:
-    """``--controllers`` (comma-separated or repeated; ``NAME`` or ``NAME@VARIANT``; default all
-    five, and with ``variants`` each also ``@paper``), or exit 2 naming the bad one."""
+    """``--controllers`` (comma-separated or repeated; ``NAME`` or ``NAME@VARIANT``; default the
+    paper's five, and with ``variants`` each also ``@paper``), or exit 2 naming the bad one."""
     from auvdock.controllers import controller_specs
 
     ctrls = split_list(controllers) or list(controller_specs(variants))

@@ -1,8 +1,12 @@
-"""Flow-state-estimating MPCs (paper sections V.A-B, Algorithm 1).
+"""Flow-state-estimating MPCs (paper sections V.A-B, Algorithm 1), and their baseline without exploration.
 
-Both controllers estimate the current with :class:`auvdock.estimation.flow_filter.FlowEstimator` from
-inertial measurements (never the true flow) and predict with the full model (eqs. 1-2)
+All three controllers estimate the current with :class:`auvdock.estimation.flow_filter.FlowEstimator`
+from inertial measurements (never the true flow) and predict with the full model (eqs. 1-2)
 driven by the ESTIMATED flow.
+
+* **Certainty-equivalent MPC** (``ce``; not in the paper): the same flow filter and the same MPC,
+  with no exploration at all -- neither the perception law nor the information reward.  It is
+  what the FSE-MPCs are measured against: whatever they do better, their exploration did.
 
 * **Sequential FSE-MPC**: each step first solves the active-perception law (9),
   ``tau* = argmax_tau lambda_min(G_(k+1)(tau))`` over a bounded body wrench, one step
@@ -70,7 +74,7 @@ from auvdock.vehicle import Vehicle
 from auvdock.vehicle.state import ANG, ATT, ETA
 from auvdock.world.dock import DockMotion
 
-__all__ = ["FSEMPC", "PerceptionLaw", "SequentialSettings", "OptimizedSettings"]
+__all__ = ["FSEMPC", "PerceptionLaw", "SequentialSettings", "OptimizedSettings", "CertaintyEquivalentSettings"]
 
 
 #: Gate probability of the robust FSE filter's innovation test (chi-square, per update).
@@ -80,6 +84,12 @@ INNOVATION_GATE = 0.999
 #: BlueROV2 parameter sets in the literature differ by 20-50 % per coefficient) and of the T200
 #: curve over battery voltage.
 MODEL_ACCEL_ERROR = 0.2
+
+
+class CertaintyEquivalentSettings(MPCSettings):
+    """Certainty-equivalent MPC: the FSE controllers' flow filter and MPC, no exploration."""
+
+    type: Literal["ce"] = "ce"
 
 
 class SequentialSettings(MPCSettings):
@@ -251,15 +261,15 @@ class FSEMPC:
 
     def __init__(
         self,
-        settings: SequentialSettings | OptimizedSettings,
+        settings: SequentialSettings | OptimizedSettings | CertaintyEquivalentSettings,
         vehicle: Vehicle,
         dock: DockMotion,
         solver: str,
         estimator: EstimatorSettings,
         sensors: SensorSettings,
     ) -> None:
-        if settings.type not in ("sequential", "optimized"):
-            raise ValueError(f"not an FSE-MPC controller: {settings.type!r}")
+        if settings.type not in ("sequential", "optimized", "ce"):
+            raise ValueError(f"not a flow-estimating controller: {settings.type!r}")
         self.name: str = settings.type  # Controller.name (the settings' literal type)
         self.variant = settings.variant
         e = estimator
@@ -287,7 +297,10 @@ class FSEMPC:
         R_inv = np.diag(1.0 / np.array([e.accel_noise_var] * 3 + [e.depth_rate_noise_var]))
         gamma = e.forgetting_factor
         self.law: PerceptionLaw | None = None
-        if isinstance(settings, SequentialSettings):
+        self.explores = not isinstance(settings, CertaintyEquivalentSettings)
+        if not self.explores:  # the flow estimate, certainty-equivalent: no information term, no law
+            self.mpc = build_mpc(settings, vehicle, dock, "full", solver, state_from_flow=True)
+        elif isinstance(settings, SequentialSettings):
             self.law = PerceptionLaw(
                 vehicle,
                 dt,
@@ -360,6 +373,8 @@ class FSEMPC:
                 r.thrust = thrust
             else:  # robust: the MPC knows the perception input over its horizon and stops undoing it
                 r = self.mpc.solve(meas.t, est.state, u_prev, est.flow_ned, u_offset=u_off)
+        elif not self.explores:
+            r = self.mpc.solve(meas.t, est.state, u_prev, est.flow_ned)
         else:
             G = self.estimator.gramian()
             depth_row = self.estimator.R(est.state[ATT])[2, :]

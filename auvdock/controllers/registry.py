@@ -15,6 +15,7 @@ name            what it is                                               reads t
 ``oracle``      MPC, eqs. (1)-(2) with the true current                  yes (Assump. 3)  rti
 ``sequential``  FSE-MPC: perception law (9) + MPC on the estimated flow  no               rti [#]_
 ``optimized``   FSE-MPC: cost (10) - alpha F, estimated flow             no               rti
+``ce``          the FSE controllers' flow filter and MPC, no exploration  no               rti
 ==============  =======================================================  ===============  ========
 
 .. [#] ``sqp`` for ``sequential@paper`` (:func:`resolve_solver` says why).
@@ -30,7 +31,7 @@ from pydantic import Field
 
 from auvdock.controllers.base import Controller
 from auvdock.controllers.baseline import BaselineMPC, KinematicSettings, NaiveSettings, OracleSettings
-from auvdock.controllers.fse import FSEMPC, OptimizedSettings, SequentialSettings
+from auvdock.controllers.fse import FSEMPC, CertaintyEquivalentSettings, OptimizedSettings, SequentialSettings
 from auvdock.controllers.settings import MPCSettings
 from auvdock.controllers.solvers import SOLVERS
 from auvdock.estimation.flow_filter import EstimatorSettings
@@ -85,6 +86,9 @@ class ControllerEntry:
     colour : str
         Its colour in every figure (hex; colour-blind-safe Okabe-Ito hues); empty: the figures
         pick one from a fallback palette by its name.
+    in_paper : bool
+        One of the paper's five controllers: the default set of ``compare`` and ``bench`` (the
+        paper's study); the others are named explicitly.
     """
 
     name: str
@@ -98,6 +102,7 @@ class ControllerEntry:
     label: str = ""
     short_label: str = ""
     colour: str = ""
+    in_paper: bool = True
 
 
 def _baseline(settings, vehicle, dock, solver, estimator, sensors) -> Controller:
@@ -135,13 +140,19 @@ CONTROLLERS: dict[str, ControllerEntry] = {
             estimates_flow=True,
             label="Optimized FSE-MPC", short_label="Optimized", colour="#CC79A7",  # reddish purple
         ),
+        ControllerEntry(
+            "ce", CertaintyEquivalentSettings, _fse, "rti", False,
+            "MPC on the estimated flow, no exploration (certainty equivalence)",
+            estimates_flow=True, in_paper=False,
+            label="Certainty-equivalent MPC", short_label="CE", colour="#000000",  # black (Okabe-Ito)
+        ),
     )
 }  # fmt: skip
 
 
-def controller_names() -> tuple[str, ...]:
-    """The registered controllers' names, in order."""
-    return tuple(CONTROLLERS)
+def controller_names(paper_only: bool = False) -> tuple[str, ...]:
+    """The registered controllers' names, in order (``paper_only``: the paper's five)."""
+    return tuple(n for n, e in CONTROLLERS.items() if e.in_paper or not paper_only)
 
 
 def controller_label(spec: str) -> str:
@@ -172,9 +183,10 @@ def split_controller(spec: str) -> tuple[str, str | None]:
     return name, (variant or None)
 
 
-def controller_specs(variants: bool = False) -> tuple[str, ...]:
-    """Every controller (``variants``: each also as ``NAME@paper``, after the defaults)."""
-    names = tuple(CONTROLLERS)
+def controller_specs(variants: bool = False, paper_only: bool = True) -> tuple[str, ...]:
+    """The paper's five controllers (``paper_only`` False: every one), and with ``variants`` each
+    also as ``NAME@paper``, after the defaults."""
+    names = controller_names(paper_only)
     return names + tuple(f"{n}@paper" for n in names) if variants else names
 
 
