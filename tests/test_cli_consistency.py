@@ -41,17 +41,17 @@ def test_mission_is_positional_everywhere() -> None:
 
 
 def test_vehicle_sim_mission_given_twice() -> None:
-    res = runner.invoke(app, ["vehicle-sim", "tank_0p6hz", "--mission", "tank_0p8hz"])
+    res = runner.invoke(app, ["vehicle-sim", "tank_positioned", "--mission", "tank_0p8hz"])
     assert res.exit_code == 2
     assert (
         res.stderr.strip()
-        == "error: --mission tank_0p8hz: the mission is also given as tank_0p6hz; give it once"
+        == "error: --mission tank_0p8hz: the mission is also given as tank_positioned; give it once"
     )
 
 
 @pytest.mark.parametrize(
     "command",
-    [["sim", "still"], ["compare", "still"], ["bench", "--case", "2"], ["fly", "tank_0p6hz"]],
+    [["sim", "still"], ["compare", "still"], ["bench", "--case", "2"], ["fly", "tank_positioned"]],
 )
 @pytest.mark.parametrize("value", ["0", "-1", "inf"])
 def test_timeout_must_be_positive_in_every_command(command: list[str], value: str) -> None:

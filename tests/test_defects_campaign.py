@@ -251,7 +251,7 @@ def test_estimation_choices_come_from_the_estimation_stage(monkeypatch) -> None:
     from auvdock.estimation import stage
 
     monkeypatch.setattr(stage, "ESTIMATION_MODES", ("truth", "filter", "magic"))
-    for command in (["sim", "still"], ["compare", "still"], ["fly", "tank_0p6hz"]):
+    for command in (["sim", "still"], ["compare", "still"], ["fly", "tank_positioned"]):
         res = runner.invoke(app, [*command, "--estimation", "nope"])
         assert res.exit_code == 2, res.output
         assert res.stderr == "error: --estimation: must be truth, filter or magic (got 'nope')\n"

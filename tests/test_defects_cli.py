@@ -65,10 +65,10 @@ def _main(argv: list[str], capsys) -> tuple[int, str]:
         (["sweep", "model_error", "--jobs", "0"], "error: --jobs: must be at least 1 (got 0)"),
         (["sweep", "model_error", "--workers", "0"], "error: --workers: must be at least 1 (got 0)"),
         # fly
-        (["fly", "tank_0p6hz", "--sysid", "0"], "error: --sysid: must be at least 1 (got 0)"),
-        (["fly", "tank_0p6hz", "--sysid", "256"], "error: --sysid: must be at most 255 (got 256)"),
+        (["fly", "tank_positioned", "--sysid", "0"], "error: --sysid: must be at least 1 (got 0)"),
+        (["fly", "tank_positioned", "--sysid", "256"], "error: --sysid: must be at most 255 (got 256)"),
         (
-            ["fly", "tank_0p6hz", "--connect-timeout", "0"],
+            ["fly", "tank_positioned", "--connect-timeout", "0"],
             "error: --connect-timeout: must be at least 0.1 (got 0)",
         ),
         # bench
@@ -87,7 +87,7 @@ def test_no_option_error_names_the_program_or_pydantic(capsys) -> None:
     for argv in (
         ["sim", "still", "--seed", "x"],
         ["compare", "--jobs", "0"],
-        ["fly", "tank_0p6hz", "--sysid", "x"],
+        ["fly", "tank_positioned", "--sysid", "x"],
     ):
         _, err = _main(argv, capsys)
         assert re.fullmatch(r"error: --[a-z-]+: [^\n]+\n", err), err

@@ -74,7 +74,7 @@ def test_unknown_position_source_is_one_clear_error(tmp_path: Path) -> None:
     assert str(e.value).startswith("m.yaml: sensors.position.source: input should be 'none', 'acoustic'")
 
 
-@pytest.mark.parametrize("mission", ["tank_0p6hz", "diagonal"])
+@pytest.mark.parametrize("mission", ["tank_positioned", "diagonal"])
 def test_oracle_docks_on_the_navigation_filter(mission: str, tmp_path: Path) -> None:
     m = load_mission(ROOT / "missions" / f"{mission}.yaml").with_updates(estimation="filter")
     out = tmp_path / "run.h5"

@@ -34,7 +34,7 @@ def spans_3d(ax) -> np.ndarray:
 
 @pytest.fixture(scope="module")
 def tank_run(tmp_path_factory: pytest.TempPathFactory) -> RunResults:
-    return short_run(tmp_path_factory.mktemp("tank"), "tank_0p6hz", 3.0)
+    return short_run(tmp_path_factory.mktemp("tank"), "tank_positioned", 3.0)
 
 
 def test_tank_3d_view_equal_scale_and_no_noise_axis(tank_run: RunResults) -> None:
@@ -87,8 +87,8 @@ def test_case_mission_top_view_arrows_and_key(tmp_path: Path) -> None:
 
 def test_png_files_per_kind_of_run(tmp_path: Path, tank_run: RunResults) -> None:
     """Baseline controllers (naive, kinematic, oracle): four PNGs; FSE-MPC runs: six."""
-    paths = plot_run(tank_run, tmp_path / "oracle", prefix="tank_0p6hz_oracle_", dpi=30)
-    assert [p.name for p in paths] == [f"tank_0p6hz_oracle_{n}.png" for n in BASE]
+    paths = plot_run(tank_run, tmp_path / "oracle", prefix="tank_positioned_oracle_", dpi=30)
+    assert [p.name for p in paths] == [f"tank_positioned_oracle_{n}.png" for n in BASE]
     fse = short_run(tmp_path, "gyre", 1.0, **{"controller.type": "sequential"})
     paths = plot_run(fse, tmp_path / "sequential", prefix="gyre_sequential_", dpi=30)
     assert [p.name for p in paths] == [f"gyre_sequential_{n}.png" for n in BASE + FSE_EXTRA]

@@ -89,7 +89,7 @@ def test_fly_arm_docks_in_the_tank(loop, tmp_path) -> None:
     assert kinds[0] == "arm" and kinds[-1] == "disarm"
     assert "vehicle: Arming motors" in res.output  # the vehicle's STATUSTEXT, shown and recorded
     assert not sim.armed
-    h5 = next(tmp_path.glob("tank_0p6hz_oracle_fly_*.h5"))
+    h5 = next(tmp_path.glob("tank_positioned_oracle_fly_*.h5"))
     tlog = h5.with_suffix(".tlog")
     assert tlog.stat().st_size > 1000
     r = read_run(h5)
@@ -312,7 +312,7 @@ def test_failing_solves_fly_neutral_then_abort(loop, tmp_path) -> None:
     assert res.stderr.strip() == (
         "aborted: controller: 20 steps in a row without a converged solve (last status fallback_zero)"
     )
-    r = read_run(next(tmp_path.glob("tank_0p6hz_oracle_fly_*.h5")))
+    r = read_run(next(tmp_path.glob("tank_positioned_oracle_fly_*.h5")))
     names = [r.status_names[int(s)] for s in r.solver_status]
     assert names.count("ok") == 0 and len(names) == 20
     assert names[:3] == ["fallback_zero"] * 3  # no good plan yet: neutral from the first step

@@ -16,7 +16,7 @@ from auvdock.fly.safety import FailedSolves, limit_reason, preflight_problems, s
 from auvdock.fly.vehicle_state import BATTERY_FILTER_S, StatustextJoiner, VehicleState
 from auvdock.vehicle.ardusub import MODES
 
-FLY = load_mission(resolve("tank_0p6hz")).fly
+FLY = load_mission(resolve("tank_positioned")).fly
 
 
 class Msg(SimpleNamespace):
@@ -62,7 +62,7 @@ def test_limits_staleness_and_failed_solves() -> None:
 
 
 def test_preflight_problems_on_measured_values() -> None:
-    m = load_mission(resolve("tank_0p6hz"))
+    m = load_mission(resolve("tank_positioned"))
     start = float(m.start_state()[2])
     p_dock = np.asarray(m.build_dock().position(0.0))
     assert preflight_problems(m, [], (start, "SCALED_PRESSURE2"), p_dock, 15.5) == []

@@ -19,7 +19,7 @@ from auvdock.loop.simulation import simulate
 from auvdock.sensing.readings import Readings
 
 ROOT = Path(__file__).resolve().parents[1]
-TANK = ROOT / "missions" / "tank_0p6hz.yaml"
+TANK = ROOT / "missions" / "tank_positioned.yaml"
 CASE2 = ROOT / "missions" / "diagonal.yaml"
 
 

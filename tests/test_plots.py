@@ -300,7 +300,7 @@ def test_thrust_limits_per_thruster(tmp_path: Path) -> None:
 
 def test_thrust_limits_from_the_stored_mission(tmp_path: Path) -> None:
     results = synthetic_run(tmp_path / "run.h5")
-    results.attrs["mission_yaml"] = (ROOT / "missions" / "tank_0p6hz.yaml").read_text()
+    results.attrs["mission_yaml"] = (ROOT / "missions" / "tank_positioned.yaml").read_text()
     limits = thrust_limits_of(results)
     assert limits is not None
     np.testing.assert_allclose(limits[0], -39.9)  # BlueROV2 Heavy, T200 at 16 V

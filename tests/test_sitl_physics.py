@@ -105,7 +105,7 @@ def serve():
     """serve(mission, **kw) -> (physics, peer), stopped and closed after the test."""
     made: list[tuple[SitlPhysics, Peer]] = []
 
-    def make(mission: str = "tank_0p6hz", **kw) -> tuple[SitlPhysics, Peer]:
+    def make(mission: str = "tank_positioned", **kw) -> tuple[SitlPhysics, Peer]:
         physics = SitlPhysics(
             load_mission(MISSIONS / f"{mission}.yaml"), listen=("127.0.0.1", 0), **kw
         ).start()
@@ -267,7 +267,7 @@ def test_no_hold_neutral_vehicle_rises_at_its_terminal_velocity(serve) -> None:
 
 
 def test_no_hold_buoyant_vehicle_floats_at_the_surface_at_rest(serve) -> None:
-    physics, peer = serve("tank_0p6hz", hold_until_thrust=False)  # starts 1 m deep
+    physics, peer = serve("tank_positioned", hold_until_thrust=False)  # starts 1 m deep
     for k in range(12 * RATE):
         msg = peer.exchange(frame(k))
     assert msg["position"] == [0.0, 0.0, 0.0] and msg["velocity"] == [0.0, 0.0, 0.0]
@@ -377,7 +377,7 @@ def _free_udp_port() -> int:
 
 
 def test_cli_bad_input_is_one_line_and_exit_2(tmp_path: Path) -> None:
-    tank = str(MISSIONS / "tank_0p6hz.yaml")
+    tank = str(MISSIONS / "tank_positioned.yaml")
     missing = tmp_path / "nosuch.yaml"
     six = MISSIONS / "tank_bluerov2.yaml"
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as busy:
@@ -445,7 +445,7 @@ def _first_answer(peer: Peer, proc: subprocess.Popen) -> dict:
 
 def test_cli_serves_frames_and_stops_after_duration() -> None:
     port = _free_udp_port()
-    proc = _spawn(["tank_0p6hz", "--listen", f"127.0.0.1:{port}", "--duration", "0.5", "--no-hold"])
+    proc = _spawn(["tank_positioned", "--listen", f"127.0.0.1:{port}", "--duration", "0.5", "--no-hold"])
     peer = Peer(("127.0.0.1", port))
     try:
         _first_answer(peer, proc)
@@ -460,7 +460,7 @@ def test_cli_serves_frames_and_stops_after_duration() -> None:
     assert proc.returncode == 0, err
     lines = out.splitlines()
     assert lines[0].startswith(f"sitl-physics: listening on udp 127.0.0.1:{port} for ArduPilot SITL")
-    assert "mission tank_0p6hz, vehicle bluerov2_heavy (8 thrusters)" in lines[0]
+    assert "mission tank_positioned, vehicle bluerov2_heavy (8 thrusters)" in lines[0]
     assert "free from the first frame (--no-hold)" in lines[0]
     assert any("connected: servo frames from 127.0.0.1:" in ln for ln in lines)
     assert any("duration: 0.5 s of physics time done" in ln for ln in lines)
@@ -471,7 +471,7 @@ def test_cli_serves_frames_and_stops_after_duration() -> None:
 
 def test_cli_ctrl_c_is_one_summary_line_and_exit_130() -> None:
     port = _free_udp_port()
-    proc = _spawn(["tank_0p6hz", "--listen", f"127.0.0.1:{port}"])
+    proc = _spawn(["tank_positioned", "--listen", f"127.0.0.1:{port}"])
     peer = Peer(("127.0.0.1", port))
     try:
         _first_answer(peer, proc)

@@ -35,7 +35,7 @@ M = mavlink2
 
 @pytest.fixture(scope="module")
 def mission():
-    return load_mission(ROOT / "missions" / "tank_0p6hz.yaml")
+    return load_mission(ROOT / "missions" / "tank_positioned.yaml")
 
 
 @pytest.fixture

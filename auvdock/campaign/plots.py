@@ -364,7 +364,9 @@ _TRAJECTORY_MARKS: dict[str, dict[str, Any]] = {
 # Line style of each registered controller's path in fig2, by its place in the registry's order:
 # where paths coincide, the later controller's dashes (drawn on top, thinner) let the earlier one
 # show through.
-_REGISTERED_LINESTYLES: tuple[Any, ...] = ("-", "-", (0, (5, 2)), (0, (1, 1.5)), (0, (6, 2, 1, 2)), (0, (2, 1)))
+_REGISTERED_LINESTYLES: tuple[Any, ...] = (
+    "-", "-", (0, (5, 2)), (0, (1, 1.5)), (0, (6, 2, 1, 2)), (0, (2, 1)),
+)  # fmt: skip
 _FALLBACK_LINESTYLES: tuple[Any, ...] = ((0, (3, 1, 1, 1)), (0, (8, 2)), (0, (2, 2)), "-")
 _PATH_WIDTHS: tuple[float, ...] = (3.4, 2.6, 2.0, 1.6, 1.3)  # by drawing order (later: thinner)
 _SAME_PATH_FRACTION = 0.01  # paths closer than this fraction of the panel's span count as one

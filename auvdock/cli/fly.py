@@ -58,7 +58,7 @@ def _camera_line(path: Path) -> str:
 
 @app.command()
 def fly(
-    mission: Path = typer.Argument(..., help="Mission YAML file or shipped mission name (e.g. tank_0p6hz)."),
+    mission: Path = typer.Argument(..., help="Mission YAML file or shipped mission name (e.g. tank_positioned)."),
     port: str = typer.Option(
         "udp:14550",
         "--port",
@@ -171,7 +171,7 @@ def fly(
 @app.command("vehicle-sim")
 def vehicle_sim(
     mission: Path | None = typer.Argument(
-        None, help="Mission YAML file or name for the start state, vehicle and flow (default: tank_0p6hz)."
+        None, help="Mission YAML file or name for the start state, vehicle and flow (default: tank_positioned)."
     ),
     port: str = typer.Option(
         "udpout:127.0.0.1:14550",
@@ -206,7 +206,7 @@ def vehicle_sim(
     if mission is not None and mission_option is not None:
         fail_input(f"--mission {mission_option}: the mission is also given as {mission}; give it once")
     mission = mission if mission is not None else mission_option
-    path = mission if mission is not None else missions_dir() / "tank_0p6hz.yaml"
+    path = mission if mission is not None else missions_dir() / "tank_positioned.yaml"
     m = load_or_exit(path)
     console.print(
         f"[bold]vehicle-sim[/bold]: ArduSub-like BlueROV2 (sysid 1) on {port}, mission {m.name}, "

@@ -74,7 +74,13 @@ from auvdock.vehicle import Vehicle
 from auvdock.vehicle.state import ANG, ATT, ETA
 from auvdock.world.dock import DockMotion
 
-__all__ = ["FSEMPC", "PerceptionLaw", "SequentialSettings", "OptimizedSettings", "CertaintyEquivalentSettings"]
+__all__ = [
+    "FSEMPC",
+    "PerceptionLaw",
+    "SequentialSettings",
+    "OptimizedSettings",
+    "CertaintyEquivalentSettings",
+]
 
 
 #: Gate probability of the robust FSE filter's innovation test (chi-square, per update).
@@ -298,7 +304,7 @@ class FSEMPC:
         gamma = e.forgetting_factor
         self.law: PerceptionLaw | None = None
         self.explores = not isinstance(settings, CertaintyEquivalentSettings)
-        if not self.explores:  # the flow estimate, certainty-equivalent: no information term, no law
+        if isinstance(settings, CertaintyEquivalentSettings):  # no information term, no law
             self.mpc = build_mpc(settings, vehicle, dock, "full", solver, state_from_flow=True)
         elif isinstance(settings, SequentialSettings):
             self.law = PerceptionLaw(
@@ -336,12 +342,17 @@ class FSEMPC:
                 state_from_flow=True,
             )
 
-    def _info_weight(self, P: np.ndarray) -> float:
-        """The weight of the information reward: 1 in the paper; robust: the share of the prior's
-        standard deviation still left in the estimate, ``sqrt(lambda_max(P) / prior_var)`` (capped at
-        1), so that a vehicle that knows the current stops turning for it."""
+    def _info_weight(self, P: np.ndarray, meas: Estimate) -> float:
+        """The weight of exploration (the information reward, the perception wrench): 1 in the paper;
+        robust: the share of the prior's standard deviation still left in the estimate of the
+        current, so that a vehicle that knows the current stops turning for it.  Measured on the
+        filter really run: the navigation filter's current (``meas.current_uncertainty``) where
+        there is one (``estimation: filter``), else this controller's flow filter,
+        ``sqrt(lambda_max(P) / prior_var)`` (capped at 1)."""
         if self.variant == "paper":
             return 1.0
+        if meas.current_uncertainty is not None:
+            return float(meas.current_uncertainty)
         lam = float(np.max(np.linalg.eigvalsh(0.5 * (P + P.T))))
         return float(min(1.0, np.sqrt(max(lam, 0.0) / self.estimator.prior_var)))
 
@@ -367,20 +378,22 @@ class FSEMPC:
         if self.law is not None:
             with timing.part("perception"):
                 tau, u_off, _ = self.law.solve(est.state, est.flow_ned, self.estimator.gramian())
-            if self.variant == "paper":  # the MPC plans without the perception input it is given
-                r = self.mpc.solve(meas.t, est.state, u_prev, est.flow_ned)
-                thrust = np.clip(r.thrust + u_off, self.vehicle.thrust_min, self.vehicle.thrust_max)
-                r.thrust = thrust
-            else:  # robust: the MPC knows the perception input over its horizon and stops undoing it
-                r = self.mpc.solve(meas.t, est.state, u_prev, est.flow_ned, u_offset=u_off)
+            # the perception input is added after the solve (paper V.B: the MPC does not plan with it;
+            # one it plans with is an input offset it simply cancels, a change of variables).  Robust:
+            # scaled by the share of the current's uncertainty still left in the filter really run,
+            # so that it fades once the current is known (and the dock can be closed); the robust
+            # MPC's disturbance observer predicts with the thrust really applied, this input included
+            w = self._info_weight(est.covariance, meas)
+            tau, u_off = w * tau, w * u_off
+            r = self.mpc.solve(meas.t, est.state, u_prev, est.flow_ned)
+            r.thrust = np.clip(r.thrust + u_off, self.vehicle.thrust_min, self.vehicle.thrust_max)
         elif not self.explores:
             r = self.mpc.solve(meas.t, est.state, u_prev, est.flow_ned)
         else:
             G = self.estimator.gramian()
             depth_row = self.estimator.R(est.state[ATT])[2, :]
-            extra = np.concatenate(
-                [_six(G), [float(information_lower_bound(G))], depth_row, [self._info_weight(est.covariance)]]
-            )
+            weight = self._info_weight(est.covariance, meas)
+            extra = np.concatenate([_six(G), [float(information_lower_bound(G))], depth_row, [weight]])
             r = self.mpc.solve(meas.t, est.state, u_prev, est.flow_ned, extra=extra)
         series = {
             "flow_estimate_m_s": est.flow_body,

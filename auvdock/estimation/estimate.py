@@ -45,6 +45,10 @@ class Estimate:
     dock_fix_t : float or None
         Sample time (s) of the newest camera fix of the dock the stage has used; None before the
         first (or without a dock camera).
+    current_uncertainty : float or None
+        How much of its prior uncertainty about the current the navigation filter still has:
+        ``sqrt(lambda_max(P_current)) / prior std``, capped at 1 (1: nothing learnt; None without a
+        navigation filter).  What an information reward is measured on (the filter really run).
     """
 
     t: float
@@ -56,6 +60,7 @@ class Estimate:
     dock_offset_ned: np.ndarray | None = None
     relative_cov: np.ndarray | None = None
     dock_fix_t: float | None = None
+    current_uncertainty: float | None = None
 
     def without_flow(self) -> Estimate:
         """The same estimate with ``flow_ned`` removed (for controllers that may not read it)."""

@@ -230,6 +230,8 @@ class NavigationStage:
         )
         assert est.dock_anchor_ned is not None and est.relative_cov is not None
         offset = est.dock_anchor_ned - self.dock_anchor
+        lam = float(np.max(np.linalg.eigvalsh(est.flow_cov[0:2, 0:2])))
+        share = min(1.0, math.sqrt(max(lam, 0.0)) / self.filter.settings.prior_current_std_m_s)
         out = Estimate(
             readings.t,
             x.copy(),
@@ -240,6 +242,7 @@ class NavigationStage:
             dock_offset_ned=offset,
             relative_cov=est.relative_cov.copy(),
             dock_fix_t=self.dock_fix_t,
+            current_uncertainty=share,
         )
         dock_now = (np.zeros(3) if self.dock is None else np.asarray(self.dock.position(readings.t))) + offset
         series = {

@@ -339,6 +339,10 @@ class LoopRecorder:
         self.statuses: list[int] = []
         self.time_parts: list[dict[str, float]] = []
         self.flow_errors: list[float] = []
+        #: The navigation filter's errors (``estimation: filter``): the vehicle's position relative
+        #: to the dock (m) and the horizontal current (m/s), against the truth, per controller step.
+        self.relative_errors: list[float] = []
+        self.current_errors: list[float] = []
         rotation = vehicle.model.function("rotation")
         self._rotation = lambda angles: np.asarray(rotation(angles))
         self._nan_series = {name: np.full(shape, np.nan) for name, shape in self.extra_series.items()}
@@ -391,6 +395,14 @@ class LoopRecorder:
         """Count a controller step into the outcome figures."""
         if not self.keep:
             return
+        x_est = out.series.get("estimated_state")
+        dock_est = out.series.get("estimated_dock_position_m")
+        if x_est is not None and dock_est is not None and np.all(np.isfinite(x_est)):
+            rel_true = obs.state[POS] - self.dock.position(obs.t)
+            self.relative_errors.append(float(np.linalg.norm(rel_true - (x_est[POS] - dock_est))))
+            cur = out.series.get("estimated_flow_ned_m_s")
+            if cur is not None and obs.true_flow_ned is not None:
+                self.current_errors.append(float(np.linalg.norm(cur[0:2] - obs.true_flow_ned[0:2])))
         self.states.append(obs.state.copy())
         self.distances.append(distance_m)
         self.solve_times.append(out.solve_time_s)
@@ -439,6 +451,13 @@ class LoopRecorder:
             from auvdock.loop.guidance import lost_track_summary
 
             outcome.update(lost_track_summary(result.lost_tracks))
+        if self.relative_errors:
+            e = np.asarray(self.relative_errors)
+            outcome["relative_position_rmse_m"] = float(np.sqrt(np.mean(e**2)))
+            outcome["relative_position_final_error_m"] = float(e[-1])
+        if self.current_errors:
+            e = np.asarray(self.current_errors)
+            outcome["navigation_current_rmse_m_s"] = float(np.sqrt(np.mean(e**2)))
         if self.flow_errors:
             e = np.asarray(self.flow_errors)
             outcome["flow_rmse_m_s"] = float(np.sqrt(np.mean(e**2)))
@@ -607,9 +626,9 @@ def run_closed_loop(
                         else:
                             f_true = _rotation(x[ATT]).T @ obs.true_flow_ned
                             series["flow_body_true_m_s"] = f_true
-                            recorder.flow_errors.append(
-                                float(np.linalg.norm(out.series["flow_estimate_m_s"] - f_true))
-                            )
+                            err = float(np.linalg.norm(out.series["flow_estimate_m_s"] - f_true))
+                            if math.isfinite(err):  # (no estimate while the filter settles)
+                                recorder.flow_errors.append(err)
                     recorder.stepped(obs, dist, out)
                     recorder.row(
                         obs,

@@ -7,7 +7,7 @@ vehicle's new state.  :class:`SitlPhysics` is that program: it moves the mission
 through the mission's flow field with :class:`auvdock.world.plant.TruthPlant` (the truth
 plant :class:`auvdock.standins.vehicle_sim.VehicleSim` flies too)::
 
-    physics = SitlPhysics(load_mission("missions/tank_0p6hz.yaml")).start()   # UDP 127.0.0.1:9002
+    physics = SitlPhysics(load_mission("missions/tank_positioned.yaml")).start()   # UDP 127.0.0.1:9002
     ...                                                                         # ardusub --model JSON
     physics.stop()
 

@@ -10,7 +10,7 @@ loopback and to rehearse without a vehicle::
     from auvdock.config.mission import load_mission
     from auvdock.standins.vehicle_sim import VehicleSim
 
-    with VehicleSim(load_mission("missions/tank_0p6hz.yaml"), port="udpout:127.0.0.1:14550") as sim:
+    with VehicleSim(load_mission("missions/tank_positioned.yaml"), port="udpout:127.0.0.1:14550") as sim:
         ...  # a GCS listening on udpin:127.0.0.1:14550 sees a BlueROV2
 
 This module is the composition: the connection, the pacing, the physics step, and which

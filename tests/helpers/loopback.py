@@ -28,7 +28,7 @@ from auvdock.runtime.clock import SimClock
 from auvdock.standins.vehicle_sim import VehicleSim
 
 ROOT = Path(__file__).resolve().parents[2]
-TANK = ROOT / "missions" / "tank_0p6hz.yaml"
+TANK = ROOT / "missions" / "tank_positioned.yaml"
 HOST = "127.0.0.1"
 NEUTRAL, RELEASE = (1500,) * 6, (0,) * 6
 ARM_DISARM = 400
