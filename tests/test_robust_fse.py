@@ -61,7 +61,8 @@ def test_robust_fse_docks_with_plant_model_error(controller) -> None:
     docks.  (The paper variant is not flown here: nothing about it is asserted.)"""
     from auvdock.loop.autopilot import build_autopilot
 
-    m = load_mission(ROOT / "missions" / "tank_positioned.yaml").with_updates(**{"controller.type": controller})
+    m = load_mission(ROOT / "missions" / "tank_positioned.yaml")
+    m = m.with_updates(**{"controller.type": controller})
     truth = plant(m, thruster_gain=0.88, buoyancy_N=1.0165, linear_damping=1.3, quadratic_damping=1.3)
     mv = m.with_updates(**{"controller.variant": "robust"})
     ap = build_autopilot(mv, mv.build_vehicle(), mv.build_dock())

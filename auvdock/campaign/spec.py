@@ -54,6 +54,14 @@ OUTCOME_COLUMNS: dict[str, str] = {
     "contact_what": "str",  # what it touched: back plate, funnel wall, structure face, buoy ("" if nothing)
     "flow_rmse_m_s": "float",
     "flow_final_error_m_s": "float",
+    # estimation: filter: the navigation filter's errors against the truth
+    "relative_position_rmse_m": "float",  # the vehicle's position relative to the dock
+    "navigation_current_rmse_m_s": "float",  # the horizontal current
+    # with a dock camera (the guidance): the camera's losses of the dock and how they ended
+    "lost_track_events": "int",
+    "lost_track_reacquired": "int",
+    "lost_track_longest_s": "float",
+    "lost_track_log": "str",
     "solve_time_median_s": "float",
     "solve_time_p95_s": "float",
     "solve_time_p99_s": "float",

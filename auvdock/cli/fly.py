@@ -58,7 +58,7 @@ def _camera_line(path: Path) -> str:
 
 @app.command()
 def fly(
-    mission: Path = typer.Argument(..., help="Mission YAML file or shipped mission name (e.g. tank_positioned)."),
+    mission: Path = typer.Argument(..., help="Mission YAML file or shipped mission name (tank_positioned)."),
     port: str = typer.Option(
         "udp:14550",
         "--port",
@@ -171,7 +171,7 @@ def fly(
 @app.command("vehicle-sim")
 def vehicle_sim(
     mission: Path | None = typer.Argument(
-        None, help="Mission YAML file or name for the start state, vehicle and flow (default: tank_positioned)."
+        None, help="Mission YAML file or name: start state, vehicle and flow (default: tank_positioned)."
     ),
     port: str = typer.Option(
         "udpout:127.0.0.1:14550",

@@ -140,7 +140,38 @@ def _point_mission(
         if key in _HEAVE_PAIR:
             upd[_HEAVE_PAIR[key]] = None
         upd[key] = value
+    if "sensors.suite" in values:
+        from auvdock.sensing.suites import suite_updates
+
+        try:
+            upd.update(suite_updates(str(values["sensors.suite"])))
+        except ValueError as e:
+            raise SweepError(p, _section(sweep, "sensors.suite"), str(e)) from None
     data = mission_data(base.with_controller(controller))
+    if "dock.distance_m" in values:
+        dist = values["dock.distance_m"]
+        if isinstance(dist, bool) or not isinstance(dist, int | float) or not dist > 0:
+            raise SweepError(
+                p, _section(sweep, "dock.distance_m"), f"must be a positive number (got {dist!r})"
+            )
+        start = np.asarray(data["start"]["state"][0:3], dtype=float)
+        dock = np.asarray(data["dock"]["position_ned_m"], dtype=float)
+        bearing = dock[0:2] - start[0:2]
+        if not np.any(bearing):
+            raise SweepError(
+                p,
+                _section(sweep, "dock.distance_m"),
+                "the base mission's dock is above the start: no bearing",
+            )
+        horizontal = float(dist) ** 2 - float(dock[2] - start[2]) ** 2
+        if horizontal <= 0:
+            raise SweepError(
+                p,
+                _section(sweep, "dock.distance_m"),
+                f"{dist:g} m is less than the depth between the start and the dock",
+            )
+        dock[0:2] = start[0:2] + bearing / np.linalg.norm(bearing) * np.sqrt(horizontal)
+        data["dock"]["position_ned_m"] = [round(float(v), 9) for v in dock]
     if "dock.depth_m" in values:
         depth = values["dock.depth_m"]
         if isinstance(depth, bool) or not isinstance(depth, int | float) or not depth > 0:

@@ -34,10 +34,11 @@ __all__ = [
     "mission_field_problem",
 ]
 
-#: Fields the sweep derives (not in the mission schema), mapped onto the flow.
 #: Fields a sweep derives mission fields from: a constant current's speed and direction (towards,
-#: degrees clockwise from north), and the dock's depth (the vehicle starts at the same depth).
-DERIVED_FIELDS = ("flow.speed_m_s", "flow.direction_deg", "dock.depth_m")
+#: degrees clockwise from north), the dock's depth (the vehicle starts at the same depth), the
+#: dock's distance from the start (along the base mission's bearing, at the dock's depth), and a
+#: named sensor suite (:data:`auvdock.sensing.suites.SENSOR_SUITES`: estimation and sensors).
+DERIVED_FIELDS = ("flow.speed_m_s", "flow.direction_deg", "dock.depth_m", "dock.distance_m", "sensors.suite")
 _FIXED_BY_SWEEP = {"seed": "seeds", "controller.type": "controllers"}
 
 

@@ -44,6 +44,8 @@ from matplotlib.figure import Figure
 
 from auvdock.campaign.plots import CONTROLLER_ORDER, controller_color, controller_label
 from auvdock.campaign.store import read_results
+from auvdock.sweep.exploration import exploration_report
+from auvdock.sweep.rates import Z95, failed, success_rate, wilson_interval
 
 __all__ = [
     "Z95",
@@ -56,60 +58,12 @@ __all__ = [
     "report_sweep",
 ]
 
-#: Two-sided 95 % standard-normal quantile.
-Z95 = 1.959964
 #: A numeric field with more distinct values than this is binned.
 MAX_LEVELS = 12
 #: Number of equal-width bins for such a field.
 N_BINS = 8
 DPI = 120
 _MARKERS = ("o", "s", "^", "D", "v", "P", "X")
-
-
-def wilson_interval(successes: int, n: int, z: float = Z95) -> tuple[float, float]:
-    """Wilson score interval of a binomial proportion ``successes / n``.
-
-    ``(p + z^2/2n -+ z sqrt(p(1-p)/n + z^2/4n^2)) / (1 + z^2/n)`` with ``p = successes / n``;
-    exactly 0 (1) at the lower (upper) end when ``successes`` is 0 (n).  ``n = 0`` gives
-    (0, 1): nothing is known.
-
-    Raises
-    ------
-    ValueError
-        If not ``0 <= successes <= n``.
-    """
-    if n < 0 or successes < 0 or successes > n:
-        raise ValueError(f"need 0 <= successes <= n, got {successes} of {n}")
-    if n == 0:
-        return 0.0, 1.0
-    p = successes / n
-    z2 = z * z
-    denom = 1.0 + z2 / n
-    centre = (p + z2 / (2 * n)) / denom
-    half = z * math.sqrt(p * (1 - p) / n + z2 / (4 * n * n)) / denom
-    lo = 0.0 if successes == 0 else max(0.0, centre - half)
-    hi = 1.0 if successes == n else min(1.0, centre + half)
-    return lo, hi
-
-
-def success_rate(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
-    """``{"n", "docked", "rate", "lo", "hi", "errors"}`` of some runs (rate NaN for none; errors:
-    the runs that failed)."""
-    n = len(rows)
-    k = sum(1 for r in rows if r["docked"])
-    lo, hi = wilson_interval(k, n)
-    return {
-        "n": n,
-        "docked": k,
-        "rate": k / n if n else math.nan,
-        "lo": lo,
-        "hi": hi,
-        "errors": sum(1 for r in rows if _failed(r)),
-    }
-
-
-def _failed(r: dict[str, Any]) -> bool:
-    return r.get("status", "done") != "done" or bool(r.get("error"))
 
 
 def _controllers(rows: Sequence[dict[str, Any]]) -> list[str]:
@@ -176,6 +130,57 @@ def success_table(
             [f"{ref['label']} (reference)", str(n), str(k), _pct(k / n), _range(lo, hi)] + ["", "", "", ""]
         )
     return SUCCESS_HEADER, out
+
+
+OUTCOME_HEADER = (
+    "controller",
+    "runs",
+    "collided",
+    "95 % interval",
+    "median impact m/s",
+    "gave up (lost_target)",
+    "timed out",
+    "losses of the dock",
+    "re-acquired",
+    "longest loss s",
+    "relative position rmse m",
+    "current rmse m/s",
+)
+
+
+def outcome_table(rows: Sequence[dict[str, Any]]) -> tuple[tuple[str, ...], list[list[str]]]:
+    """How the runs ended beyond docking, per controller (:data:`OUTCOME_HEADER`): collisions with
+    the dock's body (Wilson interval) and their median impact speed, runs that gave up finding the
+    dock or timed out, the camera's losses of the dock (with a dock camera) and how many were
+    re-acquired, and the navigation filter's median errors (``estimation: filter``)."""
+    out = []
+    for c in _controllers(rows):
+        rs = [r for r in rows if r["controller"] == c]
+        n = len(rs)
+        k = sum(1 for r in rs if r.get("collided"))
+        lo, hi = wilson_interval(k, n)
+        events = sum(int(r.get("lost_track_events") or 0) for r in rs)
+        back = sum(int(r.get("lost_track_reacquired") or 0) for r in rs)
+        out.append(
+            [
+                c,
+                str(n),
+                f"{k} ({_pct(k / n if n else math.nan)})",
+                _range(lo, hi),
+                _num(_median([r.get("impact_speed_m_s", math.nan) for r in rs if r.get("collided")]), ".3f"),
+                str(sum(1 for r in rs if r.get("reason") == "lost_target")),
+                str(sum(1 for r in rs if r.get("reason") == "timeout")),
+                str(events),
+                str(back),
+                _num(
+                    max((float(r.get("lost_track_longest_s") or math.nan) for r in rs), default=math.nan),
+                    ".2f",
+                ),
+                _num(_median([r.get("relative_position_rmse_m", math.nan) for r in rs]), ".3f"),
+                _num(_median([r.get("navigation_current_rmse_m_s", math.nan) for r in rs]), ".3f"),
+            ]
+        )
+    return OUTCOME_HEADER, out
 
 
 # ---------------------------------------------------------------------------------------
@@ -468,7 +473,7 @@ def report_sweep(h5_path: str | Path, out_dir: str | Path) -> list[Path]:
         base = (yaml.safe_load(attrs.get("base_mission_yaml", "") or "") or {}).get("name", "")
     except (yaml.YAMLError, AttributeError):
         pass
-    errors = [r for r in rows if _failed(r)]
+    errors = [r for r in rows if failed(r)]
     facts = [
         f"base mission: `{base}`" if base else "",
         f"{len(rows)} of {total} runs in the file"
@@ -496,6 +501,37 @@ def report_sweep(h5_path: str | Path, out_dir: str | Path) -> list[Path]:
     md.append("## Success per controller\n")
     header, trs = success_table(rows, refs)
     md.append(_md_table(header, trs))
+    if rows:
+        md.append("## How the runs ended\n")
+        header, trs = outcome_table(rows)
+        md.append(_md_table(header, trs))
+        lost = [r for r in rows if int(r.get("lost_track_events") or 0)]
+        if lost:
+            md.append(
+                f"Losses of the dock, per run (the camera's last fix - the end of the loss: how it ended); "
+                f"{len(lost)} runs had any:\n"
+            )
+            md.append(
+                _md_table(
+                    ["run", "controller", "reason", "losses"],
+                    [
+                        [r["run_id"], r["controller"], r["reason"], r.get("lost_track_log", "")]
+                        for r in lost[:60]
+                    ],
+                )
+            )
+            if len(lost) > 60:
+                md.append(f"... and {len(lost) - 60} more (column `lost_track_log` of `/campaign_table`).\n")
+        eh, et, findings = exploration_report(rows, list(attrs.get("grid_fields", varied)))
+        if et:
+            md.append("## Exploration against certainty equivalence\n")
+            md.append(
+                "Each flow-estimating controller against Certainty-equivalent MPC (`ce`: the same flow "
+                "filter and MPC, no exploration) in the same regime (a combination of the grid's values); "
+                "`beats`/`loses`: its Wilson 95 % interval lies wholly above/below `ce`'s.\n"
+            )
+            md.append("\n".join(f"- {f}" for f in findings) + "\n")
+            md.append(_md_table(eh, et))
     ctrls = _controllers(rows)
     for f in [*varied, *me_cols]:
         labels, _, table = _grouped(rows, f, columns[f])
