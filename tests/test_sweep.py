@@ -107,8 +107,8 @@ def test_shipped_sweeps_expand(tmp_path: Path, monkeypatch) -> None:
 
     t = load_sweep("tank_trials")
     runs = expand_sweep(t)
-    assert len(runs) == t.n_runs == 4 * 4 * 3 * 2 * 3
-    assert t.model_error.n > 0 and {r.controller for r in runs} == {"oracle", "sequential", "optimized"}
+    assert len(runs) == t.n_runs == 4 * 4 * 4 * 2 * 3
+    assert t.model_error.n > 0 and {r.controller for r in runs} == {"oracle", "ce", "sequential", "optimized"}
     r = next(r for r in runs if r.labels["dock.heave.frequency_hz"] == 0.8)
     heave = r.mission["dock"]["heave"]
     assert heave["angular_frequency_rad_s"] == pytest.approx(2 * math.pi * 0.8)

@@ -11,6 +11,37 @@ remap softens edges slightly (measured corner errors ~0.1 px for k1 = -0.28), so
 distortion-free cameras. Blur (Gaussian, sigma px) and then additive Gaussian noise (grey levels) are
 applied last.
 
+Water (optional, :class:`Water`; off by default, and then the images are the same as without it): the
+simplified Jaffe-McGlamery image formation with Koschmieder's veiling light. A target at range ``d``
+(m) of radiance ``J`` (its texture's grey level) appears as
+
+    I = J exp(-c d) + B_inf (1 - exp(-c d))
+
+-- its light attenuated along the line of sight, plus the light the water scatters into it
+(backscatter, veiling light), which tends to the radiance of water seen to infinity ``B_inf`` -- with
+the beam attenuation coefficient ``c = 4.8 / V`` (1/m) from the water's visibility ``V`` (m): the
+horizontal visibility of a black target, Zaneveld and Pegau (2003), "Robust underwater visibility
+parameter", Optics Express 11(23), 2997-3009. ``B_inf`` is the view's ``background`` grey: everything but
+the markers is open water. The black/white contrast of a marker thus falls from 255 grey levels by
+``exp(-c d)``, towards the background grey. Each target (a marker with its quiet zone) is attenuated
+with the range of its centre, the markers being small against the attenuation length ``1 / c``: across
+a 0.15 m marker (0.19 m with its quiet zone) turned by ``a`` from the line of sight the range varies by
++-0.09 sin(a) m, so ``exp(-c d)`` by +-0.09 c sin(a) -- +-4 % at 45 deg in 8 m visibility, +-16 % in 2 m
+(facing the camera 1 m away, by 2 % at most in 2 m): the detector sees the marker's mean contrast, and
+the fast camera model (:mod:`auvdock.sensing.camera_fix`) uses the same centre range.
+
+Forward scatter (the small-angle blur of the direct light, growing with range) is not rendered: the
+visibility fixes ``c`` only, while the forward-scatter spread function needs the scattering coefficient and
+the width of the scattering phase function, which it does not give, so any blur law would be a guess; and
+backscatter (the veiling light), not forward-scatter blur, is the main degradation of underwater images
+(Schechner and Karpel 2005, "Recovery of underwater visibility and structure by polarization analysis",
+IEEE J. Oceanic Eng. 30(3), 570-587).  The camera's own blur (``blur_px``) stands for it, uniformly; how
+much it matters is measured by ``python benchmarks/camera_fix_errors.py --blur 1.0`` (2026-12-02): twice
+the synthetic camera's 0.5 px blur leaves the contrast needed to decode a marker nearly unchanged (20.5
+against 19.5 grey levels) but raises the smallest decodable side from 12.5 to 19.5 px and the corner bias
+of small markers eightfold, so where forward scatter blurs far markers the fast model's size limit is
+optimistic.
+
 Pixel convention: OpenCV's (pixel centres at integer coordinates), the same as ``cv2.projectPoints``.
 """
 
@@ -18,6 +49,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import cv2
@@ -26,13 +58,46 @@ import numpy as np
 from auvdock.camera.layout import MarkerLayout, marker_image
 from auvdock.camera.model import CameraModel
 
-__all__ = ["render_checkerboard", "render_view"]
+__all__ = ["Water", "render_checkerboard", "render_view"]
 
 _Z_MIN_M = 0.02  # targets with a corner closer to the camera plane than this are not drawn
 _MAX_TEXEL_PER_CELL = 128
 _MAX_SUPERSAMPLE = 8
 _MAX_SUBPIXELS = 2.5e6  # per drawn target, sets the supersampling of large targets
 _MAX_CANVAS_SCALE = 3.0  # canvas of a distorted camera at most this many times the image size
+
+
+#: Beam attenuation times black-target visibility, c V (Zaneveld and Pegau 2003): c = 4.8 / V.
+VISIBILITY_ATTENUATION = 4.8
+
+
+@dataclass(frozen=True)
+class Water:
+    """The water between the camera and the targets (see the module docstring).
+
+    Parameters
+    ----------
+    visibility_m : float
+        Horizontal visibility of a black target, m (Zaneveld and Pegau 2003); it sets the beam
+        attenuation coefficient ``c = 4.8 / visibility_m`` (1/m).
+    """
+
+    visibility_m: float
+
+    def __post_init__(self) -> None:
+        v = float(self.visibility_m)
+        if not (math.isfinite(v) and v > 0):
+            raise ValueError(f"visibility_m: must be > 0 m, got {self.visibility_m}")
+        object.__setattr__(self, "visibility_m", v)
+
+    @property
+    def attenuation_per_m(self) -> float:
+        """Beam attenuation coefficient ``c = 4.8 / V``, 1/m."""
+        return VISIBILITY_ATTENUATION / self.visibility_m
+
+    def transmittance(self, range_m: float) -> float:
+        """``exp(-c d)``: the fraction of a target's radiance (and contrast) left at range ``d`` (m)."""
+        return math.exp(-self.attenuation_per_m * max(float(range_m), 0.0))
 
 
 def _homography(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
@@ -62,7 +127,13 @@ class _Canvas:
         self.background = float(background)
         self.image: np.ndarray = np.full((h, w), self.background, dtype=np.float32)
 
-    def draw(self, corners_c: np.ndarray, make_texture: Callable[[int], np.ndarray], cells: int) -> None:
+    def draw(
+        self,
+        corners_c: np.ndarray,
+        make_texture: Callable[[int], np.ndarray],
+        cells: int,
+        transmittance: float = 1.0,
+    ) -> None:
         """Composite a planar texture.
 
         ``corners_c`` (4, 3) are the texture's outer corners (top-left, top-right, bottom-right,
@@ -70,7 +141,8 @@ class _Canvas:
         with ``q`` texels per cell, ``cells`` cells across. Not drawn if a corner is closer than
         ``z_c = 0.02 m`` or the back side faces the camera. The patch is rendered supersampled (S x S per
         pixel, S <= 8, from a texture of about one texel per sub-pixel) and box-averaged, so edges are
-        area-sampled to ~0.01 px.
+        area-sampled to ~0.01 px. With ``transmittance`` ``t < 1`` (water) the texture's grey levels ``J``
+        become ``t J + (1 - t) B_inf`` with ``B_inf`` the canvas background (the veiling light).
         """
         if np.any(corners_c[:, 2] < _Z_MIN_M):
             return
@@ -101,6 +173,9 @@ class _Canvas:
         if S > 1:
             warped = cv2.resize(warped, (bw, bh), interpolation=cv2.INTER_AREA)
             cover = cv2.resize(cover, (bw, bh), interpolation=cv2.INTER_AREA)
+        if transmittance < 1.0:  # I = J t + B_inf (1 - t), where the target covers the pixel
+            veil = np.float32((1.0 - transmittance) * self.background)
+            warped = np.float32(transmittance) * warped + veil * cover
         patch = self.image[y0:y1, x0:x1]
         patch *= 1.0 - cover
         patch += warped
@@ -184,6 +259,7 @@ def render_view(
     blur_px: float = 0.0,
     background: float = 110,
     rng: np.random.Generator | int | None = None,
+    water: Water | None = None,
 ) -> np.ndarray:
     """Render the dock markers as seen by the camera.
 
@@ -202,9 +278,12 @@ def render_view(
     blur_px : float
         Gaussian blur sigma, px (applied before the noise).
     background : float
-        Grey level of everything but the markers.
+        Grey level of everything but the markers; with ``water``, also the veiling light ``B_inf``.
     rng : numpy Generator, int seed or None
         Noise source (seed it for reproducible images).
+    water : Water, optional
+        The water (see the module docstring): each marker attenuated by ``exp(-c d)`` with ``d`` the
+        range of its centre, towards ``background``. None (default): no water, as in air.
 
     Returns
     -------
@@ -213,6 +292,8 @@ def render_view(
         plane (or behind it) or seen from the back are not drawn; farther markers are drawn first.
     """
     _check_common(camera, noise_std, blur_px, background)
+    if water is not None and not isinstance(water, Water):
+        raise ValueError(f"water: expected a Water or None, got {type(water).__name__}")
     R_cd, t_cd = _pose(R_cd, t_cd, "d")
     canvas = _Canvas(camera, background)
     cells = layout.cells + 2
@@ -222,8 +303,9 @@ def render_view(
         outer_m = np.array([[-half, half, 0.0], [half, half, 0.0], [half, -half, 0.0], [-half, -half, 0.0]])
         corners_c = (outer_m @ m.R_dm().T + m.t_dm()) @ R_cd.T + t_cd
         targets.append((float(np.linalg.norm(corners_c.mean(axis=0))), m.id, corners_c))
-    for _, marker_id, corners_c in sorted(targets, key=lambda item: -item[0]):
-        canvas.draw(corners_c, _marker_texture(layout, marker_id, cells), cells)
+    for range_m, marker_id, corners_c in sorted(targets, key=lambda item: -item[0]):
+        t = 1.0 if water is None else water.transmittance(range_m)
+        canvas.draw(corners_c, _marker_texture(layout, marker_id, cells), cells, t)
     return canvas.finish(noise_std, blur_px, rng)
 
 

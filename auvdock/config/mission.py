@@ -48,7 +48,7 @@ from auvdock.world.spectra import SpectrumFileError
 
 if TYPE_CHECKING:
     from auvdock.camera.model import CameraMount
-    from auvdock.sensing.camera_fix import CameraFixModel
+    from auvdock.sensing.camera_fix import CameraFixSource
     from auvdock.world.dock_body import CaptureLimits, DockBody, HullBox
     from auvdock.world.waves import WaveComponents
     from auvdock.world.wec_dock import WecDock
@@ -563,25 +563,33 @@ class Mission(Strict):
         except (OSError, ValueError) as e:
             raise MissionError(where, "camera.calibration", str(e)) from None
 
-    def build_camera_fix(self) -> CameraFixModel:
-        """The fast camera model of ``sensors.dock_camera``
-        (:class:`auvdock.sensing.camera_fix.CameraFixModel`): the camera's intrinsics (its
-        calibration file, else the ideal 640 x 480, 80 deg camera), ``camera.mount``, the dock's
-        markers and ``sensors.dock_camera``."""
+    def build_camera_fix(self) -> CameraFixSource:
+        """The camera of ``sensors.dock_camera``: the fast model of its fixes
+        (:class:`auvdock.sensing.camera_fix.CameraFixModel`) or, with ``model: rendered``, the real
+        rendering + detection + pose pipeline (:class:`auvdock.sensing.camera_rendered.RenderedCameraFix`);
+        the camera's intrinsics (its calibration file, else the ideal 640 x 480, 80 deg camera),
+        ``camera.mount`` and the dock's markers."""
         from auvdock.camera.model import CameraModel
         from auvdock.sensing.camera_fix import CameraFixModel
 
         camera = self.build_camera() if self.camera.calibration is not None else CameraModel.ideal()
         s = self.sensors.dock_camera
+        mount = self.camera.mount.build()
+        if s.model == "rendered":
+            from auvdock.sensing.camera_rendered import RenderedCameraFix
+
+            return RenderedCameraFix(camera, mount, self.dock.marker_layout(), s)
         return CameraFixModel(
             camera,
-            self.camera.mount.build(),
+            mount,
             self.dock.marker_layout(),
             visibility_m=s.visibility_m,
             min_side_px=s.min_side_px,
             max_view_angle_deg=s.max_view_angle_deg,
             corner_px=s.corner_px,
             dropout=s.dropout,
+            marker_contrast_grey=s.marker_contrast_grey,
+            min_contrast_grey=s.min_contrast_grey,
         )
 
     def build_flow(self) -> FlowField:

@@ -281,6 +281,13 @@ class FlySession:
                 "estimation: filter (fly --estimation filter; truth is the paper's simulated "
                 "water-relative velocity sensor)",
             )
+        self.telemetry = TelemetrySensors(mission.sensors, mission.estimation)
+        if mission.dock.wec is not None:
+            raise MissionError(
+                mission.source or mission.name,
+                "dock.wec",
+                "a WEC dock in a simulated sea is for sim; fly needs the dock's motion model (dock.heave)",
+            )
         if mission.sensors.dock_camera.enabled:
             # the simulated camera of the sensor suite: on a vehicle the camera's fixes re-anchor the
             # dock through dock.source camera (auvdock.fly.camera), not yet through the filter
@@ -289,13 +296,6 @@ class FlySession:
                 "sensors.dock_camera",
                 "the simulated dock camera is for sim; fly finds the dock with a camera through dock.source: "
                 "camera (camera section), or flies on the vehicle's own position (tank_positioned)",
-            )
-        self.telemetry = TelemetrySensors(mission.sensors, mission.estimation)
-        if mission.dock.wec is not None:
-            raise MissionError(
-                mission.source or mission.name,
-                "dock.wec",
-                "a WEC dock in a simulated sea is for sim; fly needs the dock's motion model (dock.heave)",
             )
         self._model_dock: HeaveDock = mission.dock.build()
         self.dock: HeaveDock | TrackedDock = self._model_dock

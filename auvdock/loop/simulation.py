@@ -51,13 +51,17 @@ def idealisations(mission: Mission, reads_true_flow: bool) -> list[str]:
     out = []
     if mission.estimation == "truth":
         out.append("Assumption 1: the controllers know the true state (estimation: truth)")
-    if mission.dock.wec is None:
+    camera = mission.estimation == "filter" and mission.sensors.dock_camera.enabled
+    motion = "the WEC buoy's true heave in the realised sea" if mission.dock.wec else "the mission's heave"
+    if camera:
+        out.append(
+            f"part of Assumption 2: the controllers know the dock's motion about its anchor ({motion}); "
+            "where the dock is they estimate from the camera's fixes"
+        )
+    elif mission.dock.wec is None:
         out.append("Assumption 2: the controllers know the dock's motion (the mission's dock trajectory)")
     else:
-        out.append(
-            "Assumption 2: the controllers know the dock's motion "
-            "(the WEC buoy's true heave in the realised sea)"
-        )
+        out.append(f"Assumption 2: the controllers know the dock's motion ({motion})")
     if reads_true_flow:
         out.append("Assumption 3: the controller reads the true flow at the vehicle (its definition)")
     if mission.simulation.actuators == "ideal":

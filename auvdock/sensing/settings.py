@@ -126,10 +126,17 @@ class DockCameraSettings(Strict):
 
     With ``enabled`` the suite (``estimation: filter``) delivers a reading of kind ``dock`` --
     the dock's docking point in the camera frame (:mod:`auvdock.sensing.measurements`) -- for every
-    frame in which the camera sees at least one of the dock's markers whole
-    (:mod:`auvdock.sensing.camera_fix`: field of view, range, the water's visibility, marker size
-    and obliquity), its noise from the geometry; none otherwise.  The navigation filter then
-    estimates the dock's position as a state, anchored by these fixes (relative navigation).
+    frame in which the camera decodes at least one of the dock's markers; none otherwise.  The ``fast``
+    model (:mod:`auvdock.sensing.camera_fix`) decides from the geometry and the water (field of view,
+    obliquity, the marker's apparent size and its contrast, which the water's visibility attenuates),
+    and draws the fix's noise from the pipeline's measured corner errors; the ``rendered`` one
+    (:mod:`auvdock.sensing.camera_rendered`) renders the view and runs the real pipeline.  The
+    navigation filter then estimates the dock's position as a state, anchored by these fixes (relative
+    navigation).
+
+    The defaults marked "measured" come from ``python benchmarks/camera_fix_errors.py`` (2026-12-02): the
+    synthetic camera (640 x 480, 80 deg, image noise 2 grey levels, blur 0.5 px) rendering one 0.15 m
+    marker in water over a grid of sizes, contrasts and obliquities, decoded by the real pipeline.
     """
 
     enabled: bool = Field(
@@ -137,27 +144,52 @@ class DockCameraSettings(Strict):
         description="the camera's fixes of the dock's markers are a sensor (relative navigation: the "
         "dock's position becomes a state of the navigation filter)",
     )
+    model: Literal["fast", "rendered"] = Field(
+        default="fast",
+        description="fast: the model of the pipeline's detection and errors measured on rendered views "
+        "(auvdock.sensing.camera_fix); rendered: the real rendering + detection + pose pipeline in the "
+        "loop (auvdock.sensing.camera_rendered), slow (10-50 ms a frame), for spot checks",
+    )
     rate_hz: PosFloat = Field(default=15.0, description="frames per second, Hz (the synthetic camera's)")
     latency_s: NonNegFloat = Field(
         default=0.1, description="capture to fix, s (fly measured 98 ms median on the 2-core machine)"
     )
     visibility_m: PosFloat = Field(
         default=8.0,
-        description="range beyond which the water hides a marker, m (turbidity; assumed: clear coastal "
-        "water; a turbid harbour is 1-3 m)",
+        description="the water's visibility (horizontal, black target), m: beam attenuation c = 4.8 / V "
+        "(Zaneveld and Pegau 2003); a marker's contrast falls as exp(-c d) with its range d, so it is "
+        "decoded out to 0.54 V at most (assumed 8 m: clear coastal water; a turbid harbour is 1-3 m)",
+    )
+    marker_contrast_grey: PosFloat = Field(
+        default=255.0,
+        description="the markers' black-to-white step in the image without water, grey levels (the "
+        "synthetic camera's: black 0, white 255)",
+    )
+    min_contrast_grey: NonNegFloat = Field(
+        default=19.5,
+        description="contrast below which no marker is decoded however large, grey levels (measured: "
+        "benchmarks/camera_fix_errors.py, 2026-12-02, the boundary of half decoded, fitted with "
+        "min_side_px; 10 times the 2 grey level image noise, but nearly absolute: OpenCV's adaptive "
+        "threshold)",
     )
     min_side_px: PosFloat = Field(
-        default=16.0,
-        description="smallest apparent marker side decoded, px (between what the detector decoded, 17.9 "
-        "px, and did not, 13.6 px, on rendered views: benchmarks/camera_fix_errors.py)",
+        default=12.5,
+        description="apparent side (square root of the image area) below which no marker is decoded "
+        "however high its contrast, px; a marker is decoded while min_contrast_grey / C + "
+        "(min_side_px / side)^3 <= 1 (measured: benchmarks/camera_fix_errors.py, 2026-12-02)",
     )
     max_view_angle_deg: Annotated[float, Field(gt=0, lt=90)] = Field(
-        default=70.0,
-        description="largest angle between a marker's normal and the line of sight, deg (assumed)",
+        default=78.0,
+        description="largest angle between a marker's normal and the line of sight, deg (measured: "
+        "benchmarks/camera_fix_errors.py, 2026-12-02: half the 60 px markers decoded at 78 deg)",
     )
     corner_px: PosFloat = Field(
-        default=0.5,
-        description="corner localisation noise, px (assumed for water; rendered views give far less)",
+        default=0.0071,
+        description="corner error of well-resolved, edge-refined markers at full contrast, px; it grows as "
+        "marker_contrast_grey / C with the contrast C, and small, faint or oblique markers have more "
+        "(measured: benchmarks/camera_fix_errors.py, 2026-12-02: 0.0069-0.0078 px x C0 / C for contrasts "
+        "of 22-160 grey levels; far below the 0.5 px assumed before, except where the edge refinement "
+        "gives up, near the detection limit: 0.92 px)",
     )
     dropout: Annotated[float, Field(ge=0, lt=1)] = Field(
         default=0.02, description="probability that a frame with markers in view gives no fix (assumed)"

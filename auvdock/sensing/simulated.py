@@ -27,7 +27,7 @@ from auvdock.sensing.settings import SensorSettings
 from auvdock.vehicle.state import ANG, ATT, ETA, LIN
 
 if TYPE_CHECKING:
-    from auvdock.sensing.camera_fix import CameraFixModel
+    from auvdock.sensing.camera_fix import CameraFixSource
     from auvdock.vehicle import Vehicle
     from auvdock.world.dock import DockMotion
 
@@ -115,7 +115,7 @@ class SensorSuite:
         The one model the measurements are defined on.
     seed : int
         Seed of biases and noise.
-    camera_fix : CameraFixModel, optional
+    camera_fix : CameraFixSource, optional
         With ``dock_camera.enabled``, the camera (:mod:`auvdock.sensing.camera_fix`) whose fixes of
         ``dock`` are the readings of kind ``dock``: only when it sees the dock's markers.
     dock : DockMotion, optional
@@ -128,7 +128,7 @@ class SensorSuite:
         vehicle: Vehicle,
         seed: int,
         *,
-        camera_fix: CameraFixModel | None = None,
+        camera_fix: CameraFixSource | None = None,
         dock: DockMotion | None = None,
     ) -> None:
         self.vehicle = vehicle
@@ -188,7 +188,7 @@ class SimulatedSensors:
         The one model the measurements are defined on.
     seed : int
         The mission's seed.
-    camera_fix, dock : CameraFixModel, DockMotion, optional
+    camera_fix, dock : CameraFixSource, DockMotion, optional
         For ``sensors.dock_camera``: the camera model and the true dock it looks at.
     """
 
@@ -199,7 +199,7 @@ class SimulatedSensors:
         vehicle: Vehicle,
         seed: int,
         *,
-        camera_fix: CameraFixModel | None = None,
+        camera_fix: CameraFixSource | None = None,
         dock: DockMotion | None = None,
     ) -> None:
         rotation = vehicle.model.function("rotation")
