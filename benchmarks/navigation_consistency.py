@@ -2,6 +2,7 @@
 
     python benchmarks/navigation_consistency.py [--seeds 30] [--sim-seeds 20] [--case south]
                                                 [--controller oracle] [--jobs 2] [--skip-test]
+    python benchmarks/navigation_consistency.py --relative [--prior-current 1.0] [--seeds 30]
 
 1. The consistency test (tests/test_navigation.py): the truth is the process the filter assumes
    (its prior, its model plus its process noise, current and IMU biases as random walks, the
@@ -13,6 +14,11 @@
    is the true vehicle state, the true current at the vehicle and the suite's drawn biases.
    Prints the same figures over the time all runs share, and which states dominate the NEES
    (per state, mean (e/sigma)^2, for a consistent filter 1).
+3. ``--relative``: relative navigation (tests/test_navigation.py's hand-over test): no position
+   fixes; the filter dead-reckons for 15 s, then the camera fixes the dock at 15 Hz.  The NEES of
+   the state and of the position relative to the dock, per phase, with the filter's prior on the
+   current ``--prior-current`` (m/s; the test's 0.1, the default 1.0) and on the velocity
+   ``--prior-velocity``.
 """
 
 from __future__ import annotations
@@ -27,7 +33,9 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-NAMES = "x y z roll pitch yaw u v w p q r vc_n vc_e ba_x ba_y ba_z bg_x bg_y bg_z".split()
+NAMES = (
+    "x y z roll pitch yaw u v w p q r vc_n vc_e ba_x ba_y ba_z bg_x bg_y bg_z dock_n dock_e dock_d".split()
+)
 
 
 def _figures(title: str, t: np.ndarray, nees: np.ndarray, normed: np.ndarray, nz: int) -> None:
@@ -70,7 +78,7 @@ def _figures(title: str, t: np.ndarray, nees: np.ndarray, normed: np.ndarray, nz
 def consistency_test(n_seeds: int, T: float) -> None:
     sys.path.insert(0, str(ROOT / "tests"))
     import casadi as ca
-    from test_navigation import DT, _process_truth_run
+    from test_navigation import DT, _process_truth_run, buffered_step
 
     from auvdock.estimation.navigation_filter import NZ, NavigationSettings
     from auvdock.vehicle import load_vehicle
@@ -80,11 +88,11 @@ def consistency_test(n_seeds: int, T: float) -> None:
     v = load_vehicle("bluerov2_heavy")
     x, u, vc = ca.SX.sym("x", NX), ca.SX.sym("u", v.n_thrusters), ca.SX.sym("vc", 2)
     f = lambda xx: v.model.dynamics(xx, u, ca.vertcat(vc, 0), ca.DM.zeros(3))  # noqa: E731
-    step = ca.Function("truth", [x, u, vc], [rk4(f, x, DT, 4)])
+    step = buffered_step(ca.Function("truth", [x, u, vc], [rk4(f, x, DT, 4)]))
     t0 = time.perf_counter()
     runs = [_process_truth_run(v, step, s, NavigationSettings(), T=T, every=10) for s in range(n_seeds)]
     nees = np.array([r[0] for r in runs])
-    normed = np.array([r[1] for r in runs])
+    normed = np.array([r[2] for r in runs])
     t = np.arange(nees.shape[1]) * 10 * DT
     wall = time.perf_counter() - t0
     _figures(
@@ -93,6 +101,61 @@ def consistency_test(n_seeds: int, T: float) -> None:
         nees,
         normed,
         NZ,
+    )
+
+
+def relative_test(n_seeds: int, prior_current: float, prior_velocity: float) -> None:
+    """Section 3: dead reckoning for 15 s, then the camera's dock fixes (the test's hand-over)."""
+    sys.path.insert(0, str(ROOT / "tests"))
+    import casadi as ca
+    from test_navigation import DT, _process_truth_run, buffered_step
+
+    from auvdock.estimation.flow_filter import chi2_quantile
+    from auvdock.estimation.navigation_filter import NZ, NavigationSettings
+    from auvdock.vehicle import load_vehicle
+    from auvdock.vehicle.model import rk4
+    from auvdock.vehicle.state import NX
+
+    v = load_vehicle("bluerov2_heavy")
+    x, u, vc = ca.SX.sym("x", NX), ca.SX.sym("u", v.n_thrusters), ca.SX.sym("vc", 2)
+    f = lambda xx: v.model.dynamics(xx, u, ca.vertcat(vc, 0), ca.DM.zeros(3))  # noqa: E731
+    step = buffered_step(ca.Function("truth", [x, u, vc], [rk4(f, x, DT, 4)]))
+    st = NavigationSettings(prior_current_std_m_s=prior_current, prior_velocity_std_m_s=prior_velocity)
+    t_cam, T = 15.0, 30.0
+    t0 = time.perf_counter()
+    runs = [_process_truth_run(v, step, s, st, T=T, every=10, dock_from_t=t_cam) for s in range(n_seeds)]
+    times = np.arange(0.0, T + 1e-9, 10 * DT)
+    print(
+        f"\n3. relative navigation: dead reckoning 0-{t_cam:g} s, camera fixes of the dock after; priors "
+        f"current {prior_current:g} m/s, velocity {prior_velocity:g} m/s; {n_seeds} seeds "
+        f"({time.perf_counter() - t0:.0f} s wall)"
+    )
+    for name, values, dof in (
+        ("state", np.array([r[0] for r in runs]), NZ),
+        ("relative position", np.array([r[1] for r in runs]), 3),
+    ):
+        lo, hi = (chi2_quantile(p, n_seeds * dof) / n_seeds for p in (0.025, 0.975))
+        avg = values.mean(axis=0)
+        for phase, sel in (("dead reckoning", times < t_cam), ("camera", times >= t_cam + 0.5)):
+            inside = float(np.mean((avg[sel] >= lo) & (avg[sel] <= hi)))
+            print(
+                f"  {name}, {phase}: ensemble NEES median {np.median(avg[sel]):.1f} (bounds [{lo:.2f}, "
+                f"{hi:.2f}], {dof} dof), inside at {100 * inside:.0f} % of times; at the end of the phase "
+                f"{avg[sel][-1]:.1f}"
+            )
+    normed = np.array([r[2] for r in runs])
+    comp = np.mean(normed[:, times < t_cam] ** 2, axis=(0, 1))
+    order = np.argsort(comp)[::-1][:6]
+    print(
+        "  dead reckoning, per state mean (e/sigma)^2, largest: "
+        + ", ".join(f"{NAMES[i]} {comp[i]:.2f}" for i in order)
+    )
+    std = np.array([r[3] for r in runs])
+    before = float(np.median(std[:, (times > t_cam - 1.0) & (times < t_cam)]))
+    after = float(np.median(std[:, times > t_cam + 2.0]))
+    print(
+        f"  relative position std (largest axis): {before:.2f} m before the first fix, "
+        f"{100 * after:.1f} cm after"
     )
 
 
@@ -110,6 +173,7 @@ def _sim_run(args: tuple[str, str, int]) -> tuple[np.ndarray, np.ndarray, np.nda
 
     m = load_mission(mission_path(case)).with_updates(estimation="filter", seed=seed)
     vehicle, dock, flow = m.build_vehicle(), m.build_dock(), m.build_flow()
+    true_dock = np.asarray(m.build_dock(truth=True).position_ned_m, dtype=float)
     ap = build_autopilot(m, vehicle, dock, controller)
     # the suite simulate() builds draws the same biases from the same seed
     bias = {c.kind: c.bias for c in SensorSuite(m.sensors, vehicle, m.seed).channels}
@@ -131,7 +195,7 @@ def _sim_run(args: tuple[str, str, int]) -> tuple[np.ndarray, np.ndarray, np.nda
     assert len(states) == len(log)
     t_all, nees, normed = [], [], []
     for (t, z, P), x in zip(log, states, strict=True):
-        truth = np.concatenate([x, flow.velocity(x[POS], t)[0:2], bias["accel"], bias["gyro"]])
+        truth = np.concatenate([x, flow.velocity(x[POS], t)[0:2], bias["accel"], bias["gyro"], true_dock])
         e = truth - z
         e[YAW] = (e[YAW] + np.pi) % (2 * np.pi) - np.pi
         t_all.append(t)
@@ -173,7 +237,13 @@ def main() -> None:
     ap.add_argument("--controller", default="oracle")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--skip-test", action="store_true", help="only the sim runs")
+    ap.add_argument("--relative", action="store_true", help="only the relative-navigation test (section 3)")
+    ap.add_argument("--prior-current", type=float, default=1.0, help="section 3: prior current std, m/s")
+    ap.add_argument("--prior-velocity", type=float, default=0.5, help="section 3: prior velocity std, m/s")
     args = ap.parse_args()
+    if args.relative:
+        relative_test(args.seeds, args.prior_current, args.prior_velocity)
+        return
     if not args.skip_test:
         consistency_test(args.seeds, args.duration)
     if args.sim_seeds > 0:

@@ -4,7 +4,8 @@ Each of the paper's six flow cases (start 3.6 m from the dock, paper VII.A) is f
 navigation filter with the ``camera`` sensor suite (:mod:`auvdock.sensing.suites`: no acoustic
 positioning, no DVL; the dock found by its markers through the camera with its field of view), the
 start and the dock drawn per seed (``--placement`` m per horizontal axis, the filter's priors
-saying as much) and the guidance's approach through a standoff point.  For each case and controller
+saying as much; the vehicle starts at rest over ground, paper VII.A, and its filter knows that to
+5 cm/s) and the guidance's approach through a standoff point.  For each case and controller
 it prints how many seeds docked (the paper's 5 cm rule) with the Wilson 95 % interval, the median
 time, and how the others ended (gave up finding the dock, timed out; closest approach); then, per
 case, which deployable controllers (every one but Oracle, which reads the true current) docked in
@@ -45,6 +46,7 @@ def one(job: tuple[str, str, int, float]) -> dict[str, Any]:
             "dock.position_std_m": placement,
             "navigation.prior_position_std_m": max(placement, 0.05),
             "navigation.prior_dock_std_m": max(placement, 0.05),
+            "navigation.prior_velocity_std_m_s": 0.05,  # it starts at rest over ground (paper VII.A)
         }
     )
     o = simulate(m).outcome

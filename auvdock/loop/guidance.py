@@ -16,8 +16,7 @@ mission's ``guidance`` section, :class:`GuidanceSettings`):
 phase       what the controllers steer to
 ==========  ==========================================================================
 transit     the dock has never been seen: the standoff point ``standoff_m`` in front of
-            the dock's entry, on its axis, at the dock's heading, by dead reckoning (the
-            camera then looks along the axis at the dock's markers)
+            the dock's entry, on its axis, by dead reckoning
 search      at the standoff point (within ``arrive_m``, by the estimate) and nothing seen:
             the standoff point while the heading sweeps ``+- search_yaw_deg`` about the
             dock's, period ``search_period_s``
@@ -31,8 +30,13 @@ given_up    no fix for ``give_up_s`` (or never, ``give_up_s`` after the start): 
             controller step reports ``lost_target`` with zero thrust and the run ends
 ==========  ==========================================================================
 
-A fix in any phase returns to ``approach``.  Every loss (a fix older than ``coast_s``) is a
-:class:`LostTrack` event with how it ended: re-acquired (in which phase, after how long) or
+Once the dock has been seen, away from the entry tube (align, back off, search) the heading held is
+the bearing from the vehicle to where the dock is believed to be (``look_at_dock``), so that a
+glimpse of the dock is not lost by turning away from it; on the dock's axis that bearing is the
+dock's heading.  (In transit the heading is the dock's: turning towards a dock not yet seen, by dead
+reckoning, in a current, cost more than it found -- measured on paper cases 2 and 3.)  A fix
+returns to ``align`` or, in the entry tube, ``approach``.  Every loss (a fix older than ``coast_s``)
+is a :class:`LostTrack` event with how it ended: re-acquired (in which phase, after how long) or
 not at all (the run ended).  Without a dock camera the guidance steers to the dock all the
 time (the paper's Assumption 2, or absolute positioning).
 
@@ -94,6 +98,12 @@ class GuidanceSettings(Strict):
         default=45.0, description="the search's heading sweep about the dock's heading, +- deg"
     )
     search_period_s: PosFloat = Field(default=20.0, description="period of one search sweep, s")
+    look_at_dock: bool = Field(
+        default=True,
+        description="once the dock has been seen, away from the entry tube (align, back off, search) the "
+        "heading is the bearing to where the dock is believed to be, so that the camera keeps it in view; "
+        "false: the dock's heading",
+    )
     give_up_s: PosFloat = Field(
         default=45.0,
         description="no camera fix for this long (or none this long after the start): give up, zero "
@@ -196,18 +206,31 @@ class Guidance:
         self._search_t0: float | None = None
         self._last_fix: float | None = None
 
-    def _set(self, phase: str, t: float) -> None:
+    def _set(self, phase: str, t: float, est: Estimate) -> None:
         s = self.settings
         if phase == "search" and self.phase != "search":
             self._search_t0 = t
         self.phase = phase
         self.target.standoff_m = s.standoff_m if phase in ("transit", "search", "align", "back_off") else 0.0
+        # once the dock has been seen, away from the entry tube the camera looks where the dock is
+        # believed to be: the heading is the bearing to it (the dock's heading once on its axis), and
+        # the search sweeps about that bearing
+        looking = phase in ("align", "back_off", "search") and self._last_fix is not None
+        look = self._bearing_offset(est) if looking and s.look_at_dock else 0.0
         if phase == "search":
             assert self._search_t0 is not None
             w = 2.0 * math.pi / s.search_period_s
-            self.target.yaw_offset_rad = math.radians(s.search_yaw_deg) * math.sin(w * (t - self._search_t0))
-        else:
-            self.target.yaw_offset_rad = 0.0
+            look += math.radians(s.search_yaw_deg) * math.sin(w * (t - self._search_t0))
+        self.target.yaw_offset_rad = look
+
+    def _bearing_offset(self, est: Estimate) -> float:
+        """The bearing from the vehicle (by the estimate) to the docking point, relative to the dock's
+        heading, rad, wrapped to [-pi, pi); 0 within ``arrive_m`` of the dock (no bearing to speak of)."""
+        rel = self.target.dock_position(float(est.t)) - np.asarray(est.state[0:3], dtype=float)
+        if math.hypot(rel[0], rel[1]) < self.settings.arrive_m:
+            return 0.0
+        off = math.atan2(rel[1], rel[0]) - float(self.target.dock.heading_rad)
+        return (off + math.pi) % (2.0 * math.pi) - math.pi
 
     def update(self, est: Estimate) -> dict[str, np.ndarray]:
         """Move the target for the estimate ``est`` of one instant; the series to record."""
@@ -248,7 +271,7 @@ class Guidance:
                 phase = "given_up"
             elif phase == "back_off" and self._at_standoff(est):
                 phase = "search"
-        self._set(phase, t)
+        self._set(phase, t, est)
         return {
             "guidance_phase": np.asarray(float(GUIDANCE_PHASES.index(self.phase))),
             "dock_fix_age_s": np.asarray(age if math.isfinite(age) else math.nan),

@@ -9,7 +9,8 @@ sensors does a controller need" is one axis of a table.  Every suite runs the na
 =================  ==========================================================================
 suite              the vehicle has
 =================  ==========================================================================
-motion_capture     a tank's motion capture (1 mm, 50 Hz) and the dock's charted position
+motion_capture     a tank's motion capture (1 mm, 50 Hz), which tracks the dock too: its position is
+                   known (``dock.position_std_m`` 0)
 acoustic           acoustic positioning (Water Linked UGPS G2: 0.1 m, 2 Hz, 0.5 s latency)
 acoustic+camera    acoustic positioning, and the camera's fixes of the dock's markers
 dvl+camera         a DVL (velocity over ground, 10 Hz), and the camera's fixes of the dock
@@ -29,12 +30,15 @@ __all__ = ["SENSOR_SUITES", "suite_updates"]
 SENSOR_SUITES: dict[str, tuple[dict[str, Any], str]] = {}
 
 
-def _suite(name: str, position: str, dvl: bool, camera: bool, what: str) -> None:
+def _suite(name: str, position: str, dvl: bool, camera: bool, what: str, **more: Any) -> None:
     fields = {"sensors.position.source": position, "sensors.dvl.enabled": dvl}
-    SENSOR_SUITES[name] = ({**fields, "sensors.dock_camera.enabled": camera}, what)
+    SENSOR_SUITES[name] = ({**fields, "sensors.dock_camera.enabled": camera, **more}, what)
 
 
-_suite("motion_capture", "motion_capture", False, False, "motion capture and the dock's charted position")
+_suite(
+    "motion_capture", "motion_capture", False, False, "motion capture of the vehicle and the dock",
+    **{"dock.position_std_m": 0.0, "navigation.prior_dock_std_m": 0.001},
+)  # fmt: skip
 _suite("acoustic", "acoustic", False, False, "acoustic positioning and the dock's charted position")
 _suite("acoustic+camera", "acoustic", False, True, "acoustic positioning and the camera's fixes of the dock")
 _suite("dvl+camera", "none", True, True, "a DVL and the camera's fixes of the dock")

@@ -52,6 +52,11 @@ def load_sweep(path: str | Path) -> Sweep:
         sweep._base = load_mission(base)
     except MissionError as e:
         raise SweepError(p, "base", str(e)) from None
+    if sweep.fixed:  # set for every run: the base mission as the sweep flies it
+        try:
+            sweep._base = sweep._base.with_updates(sweep.fixed, where=p)
+        except MissionError as e:
+            raise SweepError(p, f"fixed.{e.field}" if e.field else "fixed", e.problem) from None
     check_fields(sweep)
     expand_sweep(sweep)  # every expanded mission validates, or the first bad one is reported
     return sweep

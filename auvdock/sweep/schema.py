@@ -185,6 +185,11 @@ class Sweep(Strict):
         description="controllers, NAME or NAME@VARIANT (e.g. sequential@paper)",
     )
     seeds: Annotated[int, Field(ge=1)] = Field(default=1, description="seeds per point")
+    fixed: dict[str, Any] = Field(
+        default_factory=dict,
+        description="dotted field -> value set for every run (not varied): the base mission as the sweep "
+        "flies it",
+    )
     grid: dict[str, list[Any]] = Field(default_factory=dict, description="dotted field -> values")
     random: RandomSpec = Field(default_factory=RandomSpec)
     model_error: ModelErrorSpec = Field(default_factory=ModelErrorSpec)
