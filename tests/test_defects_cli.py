@@ -222,3 +222,21 @@ def test_sweep_started_with_sigint_ignored_stops_on_sigint(tmp_path) -> None:
     rows, _ = read_sweep(path)  # readable
     assert len(rows) < 6
     assert not any(_alive(pid) for pid in workers)
+
+
+def test_fly_refuses_the_simulated_dock_camera_before_connecting(capsys) -> None:
+    """tank_0p6hz flies on the simulated dock camera (sensors.dock_camera): fly finds a dock with a
+    camera only through dock.source camera, so it refuses before connecting: exit 2, one line naming
+    the field."""
+    code, err = _main(["fly", "tank_0p6hz", "--port", "udpin:127.0.0.1:9"], capsys)
+    assert code == 2, err
+    lines = err.strip().splitlines()
+    assert (
+        len(lines) == 1
+        and lines[0].startswith("error: ")
+        and "tank_0p6hz.yaml: sensors.dock_camera: " in lines[0]
+    )
+    assert lines[0].endswith(
+        "the simulated dock camera is for sim; fly finds the dock with a camera through dock.source: camera "
+        "(camera section), or flies on the vehicle's own position (tank_positioned)"
+    )

@@ -179,6 +179,14 @@ BAD = [
         "grid.controller.alpah: unknown mission field (controller has: type, ",
     ),
     ("grid: {seed: [1, 2]}", "grid.seed: is set by the sweep's 'seeds' and cannot be varied"),
+    (
+        "grid: {sensors.suite: [sonar]}",
+        "grid.sensors.suite: unknown sensor suite 'sonar' (known: motion_capture, acoustic, acoustic+camera, "
+        "dvl+camera, camera)",
+    ),
+    ("grid: {dock.distance_m: [0]}", "grid.dock.distance_m: must be a positive number (got 0)"),
+    ("fixed: {docking.timeout_s: -1}", "fixed.docking.timeout_s: input should be greater than 0 (got -1)"),
+    ("fixed: {dockng.timeout_s: 1}", "fixed.dockng: no such field (did you mean docking?)"),
     ("grid: {dock.heave: [1]}", "grid.dock.heave: "),
 ]
 
@@ -193,6 +201,29 @@ def test_bad_sweep_file_names_the_field(tmp_path: Path, body: str, message: str)
     else:
         assert str(e.value) == f"{p}: {message}"
     assert isinstance(e.value, MissionError)  # same shape: the CLI prints either the same way
+
+
+def test_sensor_suites_distances_and_fixed_fields(tmp_path: Path) -> None:
+    """``sensors.suite`` sets what the named suite carries, ``dock.distance_m`` moves the dock along the
+    base mission's bearing (case 2's dock is 3.61 m north-east of the start), ``fixed`` sets a field
+    for every run without varying it."""
+    text = f"""\
+name: suites
+base: {ROOT / "missions" / "diagonal.yaml"}
+controllers: [ce]
+fixed: {{docking.timeout_s: 9.0}}
+grid:
+  sensors.suite: [camera, acoustic+camera]
+  dock.distance_m: [7.2111]
+"""
+    runs = expand_sweep(load_sweep(_write(tmp_path, "suites", text)))
+    assert len(runs) == 2 and all(r.mission["docking"]["timeout_s"] == 9.0 for r in runs)
+    cam, acoustic = (r.mission for r in runs)
+    assert cam["estimation"] == acoustic["estimation"] == "filter"
+    assert cam["sensors"]["position"]["source"] == "none" and cam["sensors"]["dock_camera"]["enabled"]
+    assert acoustic["sensors"]["position"]["source"] == "acoustic"
+    assert cam["dock"]["position_ned_m"] == pytest.approx([4.0, 6.0, 5.0], abs=1e-4)  # twice as far
+    assert "docking.timeout_s" not in runs[0].labels
 
 
 def test_controller_fields_are_checked_per_controller(tmp_path: Path) -> None:
