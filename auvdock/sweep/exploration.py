@@ -17,7 +17,7 @@ of cost (10)) changed anything measurable:
 from the numbers (none is written in advance): how many regimes show a difference beyond the
 intervals, which, and by how much; when none does, it says so.
 
-Imports nothing from :mod:`auvdock.sweep` (which uses it), only :mod:`auvdock.sweep.rates`.
+Imports nothing from :mod:`auvdock.sweep` (which uses it) but :mod:`auvdock.sweep.rates`.
 """
 
 from __future__ import annotations
@@ -28,9 +28,10 @@ from typing import Any
 
 import numpy as np
 
+from auvdock.controllers.registry import CONTROLLERS
 from auvdock.sweep.rates import success_rate
 
-__all__ = ["BASELINE", "RegimeComparison", "compare_regimes", "exploration_report"]
+__all__ = ["BASELINE", "RegimeComparison", "is_explorer", "compare_regimes", "exploration_report"]
 
 #: The controller the explorers are measured against.
 BASELINE = "ce"
@@ -73,11 +74,21 @@ class RegimeComparison:
         return ", ".join(f"{k} = {v}" for k, v in self.regime.items()) or "(one point)"
 
 
+def is_explorer(spec: str) -> bool:
+    """A flow-state-estimating controller that explores (Sequential, Optimized, either variant):
+    the ones measured against CE (not Oracle or the other baselines, not CE itself)."""
+    name = str(spec).partition("@")[0]
+    entry = CONTROLLERS.get(name)
+    return entry is not None and entry.estimates_flow and name != BASELINE
+
+
 def compare_regimes(rows: Sequence[dict[str, Any]], grid_fields: Sequence[str]) -> list[RegimeComparison]:
     """Every (regime, explorer) of the table against CE in the same regime (empty without CE)."""
     done = [r for r in rows]
     if not any(r["controller"] == BASELINE for r in done):
         return []
+    # a field with one value in the whole table names no regime
+    grid_fields = [f for f in grid_fields if len({str(r.get(f)) for r in done}) > 1]
     regimes: dict[tuple, dict[str, list[dict]]] = {}
     for r in done:
         key = tuple(r.get(f) for f in grid_fields)
@@ -87,7 +98,7 @@ def compare_regimes(rows: Sequence[dict[str, Any]], grid_fields: Sequence[str]) 
         by = regimes[key]
         ce = by.get(BASELINE, [])
         for c, rs in by.items():
-            if c == BASELINE or not ce:
+            if not is_explorer(c) or not ce:
                 continue
             out.append(RegimeComparison(dict(zip(grid_fields, key, strict=True)), c, rs, ce))
     return out

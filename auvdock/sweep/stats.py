@@ -173,7 +173,10 @@ def outcome_table(rows: Sequence[dict[str, Any]]) -> tuple[tuple[str, ...], list
                 str(events),
                 str(back),
                 _num(
-                    max((float(r.get("lost_track_longest_s") or math.nan) for r in rs), default=math.nan),
+                    max(
+                        (g for g in (float(r.get("lost_track_longest_s") or math.nan) for r in rs) if g == g),
+                        default=math.nan,
+                    ),
                     ".2f",
                 ),
                 _num(_median([r.get("relative_position_rmse_m", math.nan) for r in rs]), ".3f"),
