@@ -73,6 +73,11 @@ def _summary_table(title: str, outcome: dict[str, Any]) -> Table:
     t.add_row(
         "heading error at contact", f("heading_error_rad", scale=180 / np.pi, fmt="{:.2f}", unit=" deg")
     )
+    if "relative_position_rmse_m" in outcome:
+        t.add_row("navigation: relative position error RMSE", f("relative_position_rmse_m", unit=" m"))
+    if "lost_track_events" in outcome:
+        n, back = int(outcome["lost_track_events"]), int(outcome.get("lost_track_reacquired", 0))
+        t.add_row("losses of the dock", f"{n} ({back} re-acquired)" if n else "0")
     if "flow_rmse_m_s" in outcome:
         t.add_row("flow estimate RMSE", f("flow_rmse_m_s", fmt="{:.4f}", unit=" m/s"))
         t.add_row("final flow estimate error", f("flow_final_error_m_s", fmt="{:.4f}", unit=" m/s"))

@@ -15,7 +15,7 @@ name            what it is                                               reads t
 ``oracle``      MPC, eqs. (1)-(2) with the true current                  yes (Assump. 3)  rti
 ``sequential``  FSE-MPC: perception law (9) + MPC on the estimated flow  no               rti [#]_
 ``optimized``   FSE-MPC: cost (10) - alpha F, estimated flow             no               rti
-``ce``          the FSE controllers' flow filter and MPC, no exploration  no               rti
+``ce``          the FSE controllers' filter and MPC, no exploration      no               rti
 ==============  =======================================================  ===============  ========
 
 .. [#] ``sqp`` for ``sequential@paper`` (:func:`resolve_solver` says why).

@@ -19,7 +19,8 @@ transit     the dock has never been seen: the standoff point ``standoff_m`` in f
             the dock's entry, on its axis, by dead reckoning
 search      at the standoff point (within ``arrive_m``, by the estimate) and nothing seen:
             the standoff point while the heading sweeps ``+- search_yaw_deg`` about the
-            dock's, period ``search_period_s``
+            bearing to the dock (the dock's heading if never seen), period
+            ``search_period_s``
 align       seen, but not yet in the entry tube (in front of the entry, within ``arrive_m``
             of the dock's axis, no farther than the standoff point): the standoff point
 approach    in the entry tube, a fix within :data:`FRESH_FIX_S`: the dock itself
@@ -95,7 +96,9 @@ class GuidanceSettings(Strict):
         default=1.0, description="no camera fix for this long: stop flying on the prediction and back off, s"
     )
     search_yaw_deg: Annotated[float, Field(gt=0, le=180)] = Field(
-        default=45.0, description="the search's heading sweep about the dock's heading, +- deg"
+        default=45.0,
+        description="the search's heading sweep about the bearing to the dock (about the dock's heading "
+        "while it has never been seen), +- deg",
     )
     search_period_s: PosFloat = Field(default=20.0, description="period of one search sweep, s")
     look_at_dock: bool = Field(
