@@ -27,6 +27,7 @@ from auvdock.cli.app import (
 )
 from auvdock.config.mission import MissionError
 from auvdock.controllers.registry import controller_names
+from auvdock.estimation.stage import FORECAST_HORIZONS_S, forecast_rmse_key
 
 if TYPE_CHECKING:
     from auvdock.loop.simulation import Progress as SimProgress
@@ -75,6 +76,11 @@ def _summary_table(title: str, outcome: dict[str, Any]) -> Table:
     )
     if "relative_position_rmse_m" in outcome:
         t.add_row("navigation: relative position error RMSE", f("relative_position_rmse_m", unit=" m"))
+    keys = [forecast_rmse_key(h) for h in FORECAST_HORIZONS_S]
+    if all(k in outcome for k in keys):
+        ahead = " / ".join(f"{h:g}" for h in FORECAST_HORIZONS_S)
+        errors = " / ".join(f"{outcome[k] * 100:.1f}" for k in keys)
+        t.add_row(f"dock motion forecast error {ahead} s ahead", f"{errors} cm (RMS)")
     if "lost_track_events" in outcome:
         n, back = int(outcome["lost_track_events"]), int(outcome.get("lost_track_reacquired", 0))
         t.add_row("losses of the dock", f"{n} ({back} re-acquired)" if n else "0")

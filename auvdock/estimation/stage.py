@@ -51,12 +51,16 @@ from auvdock.vehicle.state import ANG, ATT, ETA, LIN, NX
 
 if TYPE_CHECKING:
     from auvdock.config.mission import Mission
+    from auvdock.estimation.dock_knowledge import TelemetryDock
     from auvdock.vehicle import Vehicle
     from auvdock.world.dock import DockMotion
 
 __all__ = [
     "ESTIMATION_MODES",
     "ESTIMATION_SERIES",
+    "FORECAST_HORIZONS_S",
+    "FORECAST_SERIES",
+    "forecast_rmse_key",
     "EstimationStage",
     "TruthStage",
     "NavigationStage",
@@ -74,6 +78,22 @@ ESTIMATION_SERIES: dict[str, tuple[int, ...]] = {
     "estimated_flow_std_m_s": (3,),
     "estimated_dock_position_m": (3,),
     "relative_position_std_m": (3,),
+}
+
+#: How far ahead the dock's forecast is recorded (``dock_forecast_m``, with ``sensors.dock_telemetry``), s.
+FORECAST_HORIZONS_S = (0.5, 1.0, 2.0, 3.0)
+
+
+def forecast_rmse_key(horizon_s: float) -> str:
+    """Outcome key of the dock forecast's RMS error ``horizon_s`` ahead: ``dock_forecast_rmse_0p5s_m``."""
+    return "dock_forecast_rmse_" + f"{horizon_s:g}".replace(".", "p") + "s_m"
+
+
+#: What the filter stage also records with the dock's telemetry: the forecast dock position (NED m) at
+#: each of :data:`FORECAST_HORIZONS_S` ahead, and its std (m) there.
+FORECAST_SERIES: dict[str, tuple[int, ...]] = {
+    "dock_forecast_m": (len(FORECAST_HORIZONS_S), 3),
+    "dock_forecast_std_m": (len(FORECAST_HORIZONS_S), 3),
 }
 
 
@@ -149,6 +169,10 @@ class NavigationStage:
         motion about it known: the heave); default: a dock at rest at the origin.
     camera_mount : (R_bc, t_bc), optional
         The camera mount of the dock readings (default mount if omitted).
+    telemetry : TelemetryDock, optional
+        With ``sensors.dock_telemetry`` for a deployable controller: the dock whose motion is forecast
+        from the telemetry readings (kind ``dock_motion``), which this stage feeds it; it must be
+        ``dock`` too (the filter's dock moves as forecast).
     """
 
     mode = "filter"
@@ -163,7 +187,12 @@ class NavigationStage:
         *,
         dock: DockMotion | None = None,
         camera_mount: tuple[np.ndarray, np.ndarray] | None = None,
+        telemetry: TelemetryDock | None = None,
     ) -> None:
+        if telemetry is not None and dock is not telemetry:
+            raise ValueError("the telemetry's forecast dock must be the stage's dock")
+        self.telemetry = telemetry
+        self.series_shapes = {**ESTIMATION_SERIES, **(FORECAST_SERIES if telemetry is not None else {})}
         self.dock = dock
         self.dock_anchor = np.zeros(3) if dock is None else np.asarray(dock.position_ned_m, dtype=float)
         motion = None
@@ -191,6 +220,8 @@ class NavigationStage:
     def reset(self) -> None:
         """Start a new run: the filter from the start guess, no previous estimate."""
         self.filter.reset(self.start_guess.copy(), dock_anchor=self.dock_anchor)
+        if self.telemetry is not None:
+            self.telemetry.reset()
         self._prev: tuple[np.ndarray, np.ndarray] | None = None
         self.last: NavEstimate | None = None
         self._t0: float | None = None
@@ -206,10 +237,16 @@ class NavigationStage:
         thrust (n,, N) really applied over the last period; and the series to record."""
         if self._t0 is None:
             self._t0 = float(readings.t)
+        navigation = []
         for r in readings.suite:
+            if r.kind == "dock_motion":  # the dock's telemetry: its forecaster's, not the filter's
+                if self.telemetry is not None:
+                    self.telemetry.update(r.t, r.value, r.std)
+                continue
             if r.kind == "dock":
                 self.dock_fix_t = max(float(r.t), self.dock_fix_t or -math.inf)
-        est = self.filter.step(readings.t, list(readings.suite), u_applied)
+            navigation.append(r)
+        est = self.filter.step(readings.t, navigation, u_applied)
         self.last = est
         x = np.asarray(est.state, dtype=float)
         R = self._rot(x[ATT])
@@ -253,12 +290,19 @@ class NavigationStage:
             "estimated_dock_position_m": dock_now,
             "relative_position_std_m": np.sqrt(np.clip(np.diag(est.relative_cov), 0.0, None)),
         }
+        if self.telemetry is not None:
+            ahead = readings.t + np.asarray(FORECAST_HORIZONS_S)
+            series["dock_forecast_m"] = self.telemetry.position(ahead) + offset
+            series["dock_forecast_std_m"] = self.telemetry.std(ahead)
         return out, series
 
 
-def build_estimation(mission: Mission, vehicle: Vehicle, dock: DockMotion | None = None) -> EstimationStage:
+def build_estimation(
+    mission: Mission, vehicle: Vehicle, dock: DockMotion | None = None, telemetry: TelemetryDock | None = None
+) -> EstimationStage:
     """The estimation stage a mission's ``estimation`` names (one of :data:`ESTIMATION_MODES`);
-    ``dock`` the dock as the mission charts it (for the filter's dock states)."""
+    ``dock`` the dock as the controller knows it (for the filter's dock states): the mission's chart,
+    or ``telemetry``, the dock forecast from its telemetry, which the stage then feeds."""
     if mission.estimation == "filter":
         mount = mission.camera.mount.build()
         return NavigationStage(
@@ -268,5 +312,8 @@ def build_estimation(mission: Mission, vehicle: Vehicle, dock: DockMotion | None
             mission.start_state(),
             dock=dock,
             camera_mount=(mount.R_bc(), mount.t_bc()),
+            telemetry=telemetry,
         )
+    if telemetry is not None:
+        raise ValueError("sensors.dock_telemetry: the dock's forecast needs estimation: filter")
     return TruthStage()

@@ -297,6 +297,13 @@ class FlySession:
                 "the simulated dock camera is for sim; fly finds the dock with a camera through dock.source: "
                 "camera (camera section), or flies on the vehicle's own position (tank_positioned)",
             )
+        if mission.sensors.dock_telemetry.enabled:
+            raise MissionError(
+                mission.source or mission.name,
+                "sensors.dock_telemetry",
+                "the simulated dock telemetry is for sim; fly takes the dock's motion from its model "
+                "(dock.heave) or a tracked dock (dock.source)",
+            )
         self._model_dock: HeaveDock = mission.dock.build()
         self.dock: HeaveDock | TrackedDock = self._model_dock
         self._landing: LandingTargetSource | None = None

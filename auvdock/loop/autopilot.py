@@ -20,6 +20,7 @@ from auvdock.controllers import Controller, ControlOutput, build_controller, res
 from auvdock.controllers.registry import CONTROLLERS
 from auvdock.controllers.settings import MPCSettings
 from auvdock.controllers.status import STATUS_LOST_TARGET, STATUS_SETTLING
+from auvdock.estimation.dock_knowledge import TelemetryDock
 from auvdock.estimation.flow_filter import EstimatorSettings
 from auvdock.estimation.stage import EstimationStage, TruthStage, build_estimation
 from auvdock.loop.guidance import GUIDANCE_SERIES, Guidance, GuidanceSettings
@@ -32,7 +33,7 @@ from auvdock.vehicle import Vehicle
 if TYPE_CHECKING:
     from auvdock.world.dock import DockMotion
 
-__all__ = ["Autopilot", "build_autopilot"]
+__all__ = ["Autopilot", "build_autopilot", "knows_dock_from_telemetry"]
 
 
 class Autopilot:
@@ -166,12 +167,28 @@ def build_autopilot(
     """
     m = mission if controller is None else mission.with_controller(controller)
     camera = m.estimation == "filter" and m.sensors.dock_camera.enabled
+    known: DockMotion = dock
+    telemetry = None
+    if knows_dock_from_telemetry(m, m.controller.type):
+        telemetry = TelemetryDock(dock)  # the chart's anchor, the motion forecast from the telemetry
+        known = telemetry
     return Autopilot(
         m.controller,
         vehicle,
-        dock,
+        known,
         m.estimator,
         m.sensors,
-        build_estimation(m, vehicle, dock),
-        Guidance(m.guidance, dock, camera),
+        build_estimation(m, vehicle, known, telemetry),
+        Guidance(m.guidance, known, camera),
+    )
+
+
+def knows_dock_from_telemetry(mission: Mission, controller: str) -> bool:
+    """Whether ``controller`` forecasts the dock's motion from the dock's telemetry in ``mission``
+    (``sensors.dock_telemetry``, ``estimation: filter``; every controller but one that reads the truth
+    by definition, Oracle) rather than being told it (Assumption 2)."""
+    return (
+        mission.estimation == "filter"
+        and mission.sensors.dock_telemetry.enabled
+        and not CONTROLLERS[controller].reads_true_flow
     )

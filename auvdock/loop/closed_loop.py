@@ -43,6 +43,7 @@ from auvdock.controllers.status import (
     STATUS_NAMES,
     STATUS_NO_STEP,
 )
+from auvdock.estimation.stage import FORECAST_HORIZONS_S, forecast_rmse_key
 from auvdock.runtime.interrupts import SigintDeferred
 from auvdock.sensing.readings import Readings
 from auvdock.vehicle.actuators import ActuatorCommand, ActuatorPath
@@ -343,6 +344,9 @@ class LoopRecorder:
         #: to the dock (m) and the horizontal current (m/s), against the truth, per controller step.
         self.relative_errors: list[float] = []
         self.current_errors: list[float] = []
+        #: The dock's motion forecast from its telemetry (``dock_forecast_m``): per controller step, the
+        #: error (m, norm) of the displacement forecast over each of its horizons against the truth's.
+        self.forecast_errors: list[np.ndarray] = []
         rotation = vehicle.model.function("rotation")
         self._rotation = lambda angles: np.asarray(rotation(angles))
         self._nan_series = {name: np.full(shape, np.nan) for name, shape in self.extra_series.items()}
@@ -403,6 +407,12 @@ class LoopRecorder:
             cur = out.series.get("estimated_flow_ned_m_s")
             if cur is not None and obs.true_flow_ned is not None:
                 self.current_errors.append(float(np.linalg.norm(cur[0:2] - obs.true_flow_ned[0:2])))
+        forecast = out.series.get("dock_forecast_m")
+        if forecast is not None and dock_est is not None and np.all(np.isfinite(forecast)):
+            now = self.dock.position(obs.t)
+            moved_true = np.array([self.dock.position(obs.t + h) - now for h in FORECAST_HORIZONS_S])
+            moved_forecast = np.asarray(forecast) - dock_est
+            self.forecast_errors.append(np.linalg.norm(moved_forecast - moved_true, axis=1))
         self.states.append(obs.state.copy())
         self.distances.append(distance_m)
         self.solve_times.append(out.solve_time_s)
@@ -458,6 +468,10 @@ class LoopRecorder:
         if self.current_errors:
             e = np.asarray(self.current_errors)
             outcome["navigation_current_rmse_m_s"] = float(np.sqrt(np.mean(e**2)))
+        if self.forecast_errors:
+            rms = np.sqrt(np.mean(np.square(self.forecast_errors), axis=0))
+            for h, v in zip(FORECAST_HORIZONS_S, rms, strict=True):
+                outcome[forecast_rmse_key(h)] = float(v)
         if self.flow_errors:
             e = np.asarray(self.flow_errors)
             outcome["flow_rmse_m_s"] = float(np.sqrt(np.mean(e**2)))

@@ -53,7 +53,14 @@ def idealisations(mission: Mission, reads_true_flow: bool) -> list[str]:
         out.append("Assumption 1: the controllers know the true state (estimation: truth)")
     camera = mission.estimation == "filter" and mission.sensors.dock_camera.enabled
     motion = "the WEC buoy's true heave in the realised sea" if mission.dock.wec else "the mission's heave"
-    if camera:
+    telemetry = mission.estimation == "filter" and mission.sensors.dock_telemetry.enabled
+    if telemetry:  # the deployable controllers forecast the dock's motion from its telemetry
+        if reads_true_flow:
+            out.append(
+                f"Assumption 2: the controller is told the dock's true motion ({motion}; its definition: "
+                "the deployable controllers forecast it from the dock's telemetry)"
+            )
+    elif camera:
         out.append(
             f"part of Assumption 2: the controllers know the dock's motion about its anchor ({motion}); "
             "where the dock is they estimate from the camera's fixes"

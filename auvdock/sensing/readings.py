@@ -28,7 +28,9 @@ class Reading:
     ----------
     kind : str
         A key of :data:`auvdock.sensing.measurements.KINDS` (``attitude``, ``gyro``, ``accel``,
-        ``depth``, ``position``, ``dvl``).
+        ``depth``, ``position``, ``dvl``, ``dock``: what the navigation filter reads), or
+        ``dock_motion``: the dock's own telemetry of its displacement from its mean (NED, m), which
+        the dock's forecaster reads (:mod:`auvdock.estimation.dock_knowledge`).
     t : float
         Sample time, s (mission clock).
     value : ndarray (KINDS[kind],)

@@ -34,6 +34,7 @@ __all__ = [
     "DvlSettings",
     "POSITION_SOURCES",
     "DockCameraSettings",
+    "DockTelemetrySettings",
 ]
 
 
@@ -196,6 +197,50 @@ class DockCameraSettings(Strict):
     )
 
 
+class DockTelemetrySettings(Strict):
+    """The dock's own motion sensor, sent to the vehicle's controller: what a deployable controller
+    forecasts the dock's motion from (no Assumption 2).
+
+    A WEC carries a motion reference unit (its power take-off needs the buoy's heave); its record
+    reaches the shore, and the vehicle's topside computer, over the WEC's cable or radio.  With
+    ``enabled`` the suite (``estimation: filter``) delivers readings of kind ``dock_motion``: the
+    docking point's displacement from its mean (NED, m: heave, and surge and sway where the dock
+    moves so), sampled at ``rate_hz``, with white noise ``std_m`` per axis, ``latency_s`` late, a
+    share ``dropout`` lost; at the start the last ``history_s`` of the record arrive at once (the
+    dock has been sending all along).  The deployable controllers then steer to the dock's motion
+    forecast from these readings (:class:`auvdock.estimation.dock_knowledge.TelemetryDock`); Oracle
+    alone is told the true motion.  Without it every controller is told the dock's motion
+    (Assumption 2).  The dock's position is not in the telemetry: the vehicle finds it with its camera
+    or its charted position (relative navigation).
+    """
+
+    enabled: bool = Field(
+        default=False,
+        description="the deployable controllers forecast the dock's motion from the dock's telemetry "
+        "(no Assumption 2); without it they are told the motion",
+    )
+    rate_hz: PosFloat = Field(
+        default=10.0,
+        description="samples per second, Hz (assumed: a motion unit's 10-200 Hz thinned for the link)",
+    )
+    latency_s: NonNegFloat = Field(
+        default=0.25, description="sample to use, s (assumed: the dock's link to shore and on to the topside)"
+    )
+    std_m: NonNegFloat = Field(
+        default=0.05,
+        description="noise of each axis of the displacement, m (a marine motion reference unit's heave: "
+        "5 cm or 5 %, whichever is larger; Kongsberg MRU data sheets)",
+    )
+    dropout: Annotated[float, Field(ge=0, lt=1)] = Field(
+        default=0.02, description="probability that a sample is lost on the link (assumed)"
+    )
+    history_s: NonNegFloat = Field(
+        default=300.0,
+        description="how much of the dock's record the vehicle has when the run starts, s (the "
+        "forecaster estimates the sea's spectrum from it; 0: none)",
+    )
+
+
 class PositionSettings(Strict):
     """Where position fixes come from; rate, latency and noise default to the source's figures."""
 
@@ -254,3 +299,4 @@ class SensorSettings(Strict):
     position: PositionSettings = Field(default_factory=PositionSettings)
     dvl: DvlSettings = Field(default_factory=DvlSettings)
     dock_camera: DockCameraSettings = Field(default_factory=DockCameraSettings)
+    dock_telemetry: DockTelemetrySettings = Field(default_factory=DockTelemetrySettings)

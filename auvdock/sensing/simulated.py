@@ -15,6 +15,7 @@ Seeded: the same seed gives the same readings.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
@@ -119,7 +120,8 @@ class SensorSuite:
         With ``dock_camera.enabled``, the camera (:mod:`auvdock.sensing.camera_fix`) whose fixes of
         ``dock`` are the readings of kind ``dock``: only when it sees the dock's markers.
     dock : DockMotion, optional
-        The true dock the camera looks at.
+        The true dock the camera looks at, and whose motion ``dock_telemetry`` sends (readings of
+        kind ``dock_motion``: its displacement from its mean, NED m).
     """
 
     def __init__(
@@ -148,6 +150,17 @@ class SensorSuite:
                 _Channel(err.kind, err.rate_hz, err.latency_s, err.noise_std, draw_bias(err, self.rng))
             )
         self.channels = chans
+        tel = settings.dock_telemetry
+        self.telemetry: _Channel | None = None
+        if tel.enabled:
+            if dock is None:
+                raise ValueError("sensors.dock_telemetry: the simulated telemetry needs its dock")
+            std = np.full(3, float(tel.std_m))
+            self.telemetry = _Channel("dock_motion", tel.rate_hz, tel.latency_s, std, np.zeros(3))
+            self.telemetry_dropout = float(tel.dropout)
+            self.telemetry_history_s = float(tel.history_s)
+            self.telemetry_rng = np.random.default_rng([int(seed), 16])  # the other sensors' draws unchanged
+        self._started = False
 
     def read(self, t: float, x: np.ndarray, u_prev: np.ndarray, flow_ned: np.ndarray) -> list[Reading]:
         """The readings delivered at control instant ``t`` (s): state ``x`` (12,), thrust held
@@ -155,6 +168,8 @@ class SensorSuite:
         from auvdock.sensing.readings import Reading
 
         out = []
+        if self.telemetry is not None:
+            out.extend(self._read_telemetry(t))
         for c in self.channels:
             if t + 1e-9 >= c.next_sample and c.kind == "dock":
                 # the camera's fix: only when it sees the dock's markers, its noise from the geometry
@@ -171,6 +186,29 @@ class SensorSuite:
                 c.next_sample = max(c.next_sample + c.period, t + 0.5 * c.period)
             while c.pending and c.pending[0].t + c.latency <= t + 1e-9:
                 out.append(c.pending.pop(0))
+        return out
+
+
+    def _read_telemetry(self, t: float) -> list[Reading]:
+        """The dock's telemetry delivered at ``t``: its displacement from its mean, sampled where due
+        (at the first instant, also the record of the last ``history_s`` before it)."""
+        c = self.telemetry
+        assert c is not None and self.dock is not None
+        anchor = np.asarray(self.dock.position_ned_m, dtype=float)
+        if not self._started:
+            self._started = True
+            n = int(math.floor(self.telemetry_history_s / c.period + 1e-9))
+            c.next_sample = t - n * c.period
+        while t + 1e-9 >= c.next_sample:
+            ts = c.next_sample
+            if self.telemetry_rng.random() >= self.telemetry_dropout:
+                value = np.asarray(self.dock.position(ts), dtype=float) - anchor
+                noise = c.std * self.telemetry_rng.standard_normal(3)
+                c.pending.append(Reading(c.kind, ts, value + noise, c.std.copy()))
+            c.next_sample = ts + c.period
+        out = []
+        while c.pending and c.pending[0].t + c.latency <= t + 1e-9:
+            out.append(c.pending.pop(0))
         return out
 
 
