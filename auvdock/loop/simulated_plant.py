@@ -134,8 +134,10 @@ class SimulatedPlant:
             return Observation(t, x, np.full(3, np.nan), None)
         v_c = self.flow.velocity(x[POS], t)
         columns: dict[str, np.ndarray] = {}
+        path_rate = water_accel = None
         if self.sea is not None:
-            v_w, _, a_w = self.truth.water_at(x, t)
+            v_w, path_rate, a_w = self.truth.water_at(x, t)
+            water_accel = a_w
             v_c = v_c + v_w
             columns = {"wave_velocity_ned_m_s": v_w, "water_acceleration_ned_m_s2": a_w}
             if self.dock is not None:
@@ -154,7 +156,7 @@ class SimulatedPlant:
                 dock_heading_rad=self.dock.heading_rad,
             )
             columns["nose_dock_m"] = contact.nose_dock_m
-        readings = self.sensors.read(t, x, self._x_prev, self.dt, self._applied, v_c)
+        readings = self.sensors.read(t, x, self._x_prev, self.dt, self._applied, v_c, path_rate, water_accel)
         return Observation(t, x, v_c, readings, true_flow_ned=v_c, columns=columns, contact=contact)
 
     def apply(self, t: float, command: ActuatorCommand) -> Applied:

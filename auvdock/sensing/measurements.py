@@ -84,12 +84,17 @@ def expression(
     u: Sym,
     flow_ned: Sym,
     dock: tuple[Sym, np.ndarray, np.ndarray] | None = None,
+    flow_ned_dot: Sym | None = None,
+    water_accel_ned: Sym | None = None,
 ) -> Sym:
     """Symbolic value of measurement ``kind`` (``KINDS[kind]`` x 1) from CasADi ``x``, ``u``, ``flow_ned``.
 
     ``model`` is the :class:`~auvdock.vehicle.model.VehicleModel`.  Works on SX and MX.
     ``dock`` = ``(p_dock (3, NED m), R_bc (3, 3), t_bc (3,, m))``: the dock's docking point and the
-    camera mount, for kind ``dock`` (required there, ignored elsewhere).
+    camera mount, for kind ``dock`` (required there, ignored elsewhere).  For ``accel``, the water's
+    velocity changing along the vehicle's path (``flow_ned_dot``, m/s^2, {n}) and the water's
+    acceleration (``water_accel_ned``, its Froude-Krylov force: waves) push the vehicle, and the
+    accelerometer feels it; both zero if omitted (a steady current).
     """
     _check_kind(kind)
     if kind == "dock":
@@ -108,7 +113,9 @@ def expression(
     if kind == "dvl":
         return x[LIN]
     # accel: specific force in {b}
-    nu_dot, _ = model.accelerations(x, model.wrench(u), flow_ned, ca.DM.zeros(3))
+    if flow_ned_dot is None:
+        flow_ned_dot = ca.DM.zeros(3)
+    nu_dot, _ = model.accelerations(x, model.wrench(u), flow_ned, flow_ned_dot, water_accel_ned)
     nu1, nu2 = x[LIN], x[ANG]
     R = model.rotation(x[0:6])
     g_n = ca.DM([0.0, 0.0, GRAVITY])
@@ -126,8 +133,16 @@ def h(kind: str, vehicle: Vehicle) -> ca.Function:
         x = ca.SX.sym("x", NX)
         u = ca.SX.sym("u", vehicle.n_thrusters)
         vc = ca.SX.sym("flow_ned", 3)
-        y = expression(kind, vehicle.model, x, u, vc)
-        per_vehicle[kind] = ca.Function(f"h_{kind}", [x, u, vc], [y], ["x", "u", "flow_ned"], ["y"])
+        vc_dot = ca.SX.sym("flow_ned_dot", 3)
+        a_w = ca.SX.sym("water_accel_ned", 3)
+        y = expression(kind, vehicle.model, x, u, vc, None, vc_dot, a_w)
+        per_vehicle[kind] = ca.Function(
+            f"h_{kind}",
+            [x, u, vc, vc_dot, a_w],
+            [y],
+            ["x", "u", "flow_ned", "flow_ned_dot", "water_accel_ned"],
+            ["y"],
+        )
     return per_vehicle[kind]
 
 
@@ -137,13 +152,19 @@ def measure(
     x: np.ndarray,
     u: np.ndarray | None = None,
     flow_ned: np.ndarray | None = None,
+    flow_ned_dot: np.ndarray | None = None,
+    water_accel_ned: np.ndarray | None = None,
 ) -> np.ndarray:
     """Noise-free measurement ``kind`` (``(KINDS[kind],)`` ndarray) at state ``x`` (12,).
 
     ``u``: thrust (n,, N) held over the last period (default zero); ``flow_ned``: water velocity
-    in {n} (3,, m/s; default still water).  Only ``accel`` depends on ``u`` and ``flow_ned``.
+    in {n} (3,, m/s; default still water); ``flow_ned_dot``: its rate along the vehicle's path and
+    ``water_accel_ned``: the water's acceleration (3,, m/s^2, {n}; waves; default zero).  Only
+    ``accel`` depends on ``u`` and the water.
     """
     fn = h(kind, vehicle)
     uu = np.zeros(vehicle.n_thrusters) if u is None else np.asarray(u, dtype=float)
     vc = np.zeros(3) if flow_ned is None else np.asarray(flow_ned, dtype=float)
-    return np.asarray(fn(np.asarray(x, dtype=float), uu, vc)).reshape(-1)
+    vd = np.zeros(3) if flow_ned_dot is None else np.asarray(flow_ned_dot, dtype=float)
+    aw = np.zeros(3) if water_accel_ned is None else np.asarray(water_accel_ned, dtype=float)
+    return np.asarray(fn(np.asarray(x, dtype=float), uu, vc, vd, aw)).reshape(-1)

@@ -162,9 +162,19 @@ class SensorSuite:
             self.telemetry_rng = np.random.default_rng([int(seed), 16])  # the other sensors' draws unchanged
         self._started = False
 
-    def read(self, t: float, x: np.ndarray, u_prev: np.ndarray, flow_ned: np.ndarray) -> list[Reading]:
+    def read(
+        self,
+        t: float,
+        x: np.ndarray,
+        u_prev: np.ndarray,
+        flow_ned: np.ndarray,
+        flow_ned_dot: np.ndarray | None = None,
+        water_accel_ned: np.ndarray | None = None,
+    ) -> list[Reading]:
         """The readings delivered at control instant ``t`` (s): state ``x`` (12,), thrust held
-        over the last period ``u_prev`` (n,), true flow at the vehicle ``flow_ned`` (3,)."""
+        over the last period ``u_prev`` (n,), true flow at the vehicle ``flow_ned`` (3,), and in
+        waves the flow's rate along the vehicle's path and the water's acceleration (3,, m/s^2,
+        {n}), which the accelerometer feels."""
         from auvdock.sensing.readings import Reading
 
         out = []
@@ -179,7 +189,7 @@ class SensorSuite:
                     c.pending.append(Reading(c.kind, t, fix.dock_camera_m, fix.std_camera_m))
                 c.next_sample = max(c.next_sample + c.period, t + 0.5 * c.period)
             elif t + 1e-9 >= c.next_sample:
-                value = measure(c.kind, self.vehicle, x, u_prev, flow_ned)
+                value = measure(c.kind, self.vehicle, x, u_prev, flow_ned, flow_ned_dot, water_accel_ned)
                 noisy = value + c.bias + c.std * self.rng.standard_normal(c.std.shape)
                 # the sensor's stated std is its white noise: the bias is what a filter must live with
                 c.pending.append(Reading(c.kind, t, noisy, c.std.copy()))
@@ -256,12 +266,17 @@ class SimulatedSensors:
         dt: float,
         u_applied: np.ndarray,
         flow_ned: np.ndarray,
+        flow_ned_dot: np.ndarray | None = None,
+        water_accel_ned: np.ndarray | None = None,
     ) -> Readings:
         """The readings at instant ``t`` (s) of the true state ``x`` (12,), ``x_prev`` (12,) one
         period ``dt`` (s) earlier (None at the first instant), with ``u_applied`` (n,, N) the
-        thrust applied over that period and ``flow_ned`` (3,, m/s) the true flow at the vehicle."""
+        thrust applied over that period and ``flow_ned`` (3,, m/s) the true flow at the vehicle;
+        in waves ``flow_ned_dot`` its rate along the path and ``water_accel_ned`` the water's
+        acceleration (3,, m/s^2), for the accelerometer."""
         if self.paper is not None:  # Assumption 1: the true state, the paper's sensing
             sensing = self.paper.read(x, x_prev, dt, flow_ned)
             return Readings(t, [], x.copy(), sensing, flow_ned)
         assert self.suite is not None
-        return Readings(t, self.suite.read(t, x, u_applied, flow_ned), None, None, flow_ned)
+        readings = self.suite.read(t, x, u_applied, flow_ned, flow_ned_dot, water_accel_ned)
+        return Readings(t, readings, None, None, flow_ned)
