@@ -56,7 +56,7 @@ import math
 import weakref
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal
 
 import casadi as ca
 import numpy as np
@@ -83,6 +83,10 @@ __all__ = [
     "BIAS_A",
     "BIAS_G",
     "DOCK",
+    "WAVE_VELOCITY",
+    "WAVE_ACCEL",
+    "NZ_WAVES",
+    "WaveModel",
     "DockMotionOffset",
 ]
 
@@ -94,6 +98,12 @@ CURRENT = slice(NX, NX + 2)
 BIAS_A = slice(NX + 2, NX + 5)
 BIAS_G = slice(NX + 5, NX + 8)
 DOCK = slice(NX + 8, NX + 11)
+#: With a wave model (:class:`WaveModel`) the filter state goes on: the water's wave-frequency velocity
+#: at the vehicle (NED, m/s) and its rate (m/s^2), a damped oscillator per axis.
+WAVE_VELOCITY = slice(NX + 11, NX + 14)
+WAVE_ACCEL = slice(NX + 14, NX + 17)
+#: Filter state dimension with a wave model.
+NZ_WAVES = NX + 17
 _CURRENT, _BIAS_A, _BIAS_G = CURRENT, BIAS_A, BIAS_G
 
 #: The dock's known motion about its anchor: ``t (s) -> (offset (3,), velocity (3,))``, NED m and m/s.
@@ -201,6 +211,19 @@ class NavigationSettings(Strict):
         description="add the second-order term of the model to the predicted covariance (the "
         "model's rates are worth little while the velocity through the water is uncertain)",
     )
+    waves: Literal["auto", "off"] = Field(
+        default="auto",
+        description="auto: in a mission with waves (sea.waves) the water is a slow current plus a "
+        "wave-frequency velocity, a damped oscillator per axis at the sea's mean frequency with the sea "
+        "state's orbital spread at the start depth (the statistics a wave buoy reports, not the "
+        "realised sea); off: a current only",
+    )
+    wave_damping_ratio: float = Field(
+        default=0.1,
+        gt=0.0,
+        lt=1.0,
+        description="relative damping of the wave oscillators (Fossen 2011, 8.2: 0.05-0.1)",
+    )
     settle_s: float = Field(
         default=2.0,
         ge=0.0,
@@ -240,7 +263,9 @@ class NavEstimate:
     normalized innovation squared of this step's readings (0 with none; chi-square with
     ``n_meas`` degrees of freedom for a consistent filter); ``dock_anchor_ned`` (3,) the dock's
     anchor (NED, m) and ``dock_cov`` (3, 3); ``relative_cov`` (3, 3) the covariance of the
-    vehicle's position relative to the dock (m^2), what the camera's fixes shrink.
+    vehicle's position relative to the dock (m^2), what the camera's fixes shrink;
+    ``wave_velocity_ned`` (3,) the water's wave-frequency velocity at the vehicle (NED, m/s) and
+    ``wave_cov`` (3, 3), with a wave model (else None).
     """
 
     t: float
@@ -253,6 +278,47 @@ class NavEstimate:
     dock_anchor_ned: np.ndarray | None = None
     dock_cov: np.ndarray | None = None
     relative_cov: np.ndarray | None = None
+    wave_velocity_ned: np.ndarray | None = None
+    wave_cov: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class WaveModel:
+    """The water's wave-frequency motion as the filter models it (a dynamic-positioning wave filter).
+
+    Each axis of the orbital velocity ``w`` at the vehicle (NED, m/s) is a damped oscillator driven by
+    white noise, ``w'' + 2 zeta omega w' + omega^2 w = xi`` (Fossen 2011, Handbook of Marine Craft
+    Hydrodynamics and Motion Control, 8.2: the linear wave response model, relative damping 0.05-0.1),
+    whose stationary standard deviation is ``velocity_std_m_s``: the noise density is
+    ``velocity_std * sqrt(4 zeta omega^3)``.  The current stays a random walk (slow): what oscillates at
+    the wave frequency goes into ``w``, so the current's estimate does not.
+
+    Attributes
+    ----------
+    omega_rad_s : float
+        The oscillators' natural frequency, rad/s: the sea's (encounter) frequency at the vehicle.
+    damping_ratio : float
+        ``zeta``: the spectral peak's half-power width is about ``2 zeta omega``.
+    velocity_std_m_s : tuple of 3 floats
+        Stationary standard deviation of each axis (north, east, down) of the orbital velocity, m/s.
+    """
+
+    omega_rad_s: float
+    damping_ratio: float = 0.1
+    velocity_std_m_s: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    def __post_init__(self) -> None:
+        if not (self.omega_rad_s > 0 and math.isfinite(self.omega_rad_s)):
+            raise ValueError(f"WaveModel: omega_rad_s must be positive, got {self.omega_rad_s}")
+        if not 0 < self.damping_ratio < 1:
+            raise ValueError(f"WaveModel: damping_ratio must be in (0, 1), got {self.damping_ratio}")
+        if len(self.velocity_std_m_s) != 3 or min(self.velocity_std_m_s) < 0:
+            raise ValueError("WaveModel: velocity_std_m_s must be 3 values >= 0")
+
+    def accel_density(self) -> np.ndarray:
+        """Density (3,) of the white noise driving each axis's rate, m/s^2/sqrt(s)."""
+        w, zeta = self.omega_rad_s, self.damping_ratio
+        return np.asarray(self.velocity_std_m_s, dtype=float) * math.sqrt(4.0 * zeta * w**3)
 
 
 def _second_order_covariance(f: ca.SX, z: ca.SX, P: ca.SX, h: float | ca.SX, n: int) -> ca.SX:
@@ -281,22 +347,27 @@ def _second_order_covariance(f: ca.SX, z: ca.SX, P: ca.SX, h: float | ca.SX, n: 
     return dP
 
 
-# per vehicle, (substeps, second order, camera mount) -> its three functions: building them takes
+# per vehicle, (substeps, second order, camera mount, waves) -> its three functions: building them takes
 # about 0.2 s, and a vehicle's filters share them (a filter evaluates them on buffers of its own)
-_Key = tuple[int, bool, tuple[float, ...]]
+_Key = tuple[int, bool, tuple[float, ...], bool]
 _FUNCTIONS: weakref.WeakKeyDictionary[Vehicle, dict[_Key, tuple[ca.Function, ...]]]
 _FUNCTIONS = weakref.WeakKeyDictionary()
 
 
 def _step_functions(
-    vehicle: Vehicle, substeps: int, second_order: bool, mount: tuple[np.ndarray, np.ndarray]
+    vehicle: Vehicle,
+    substeps: int,
+    second_order: bool,
+    mount: tuple[np.ndarray, np.ndarray],
+    waves: bool = False,
 ) -> tuple[ca.Function, ...]:
     """:func:`_step_function`, built once per vehicle and settings."""
     per_vehicle = _FUNCTIONS.setdefault(vehicle, {})
     R_bc, t_bc = (np.asarray(a, dtype=float) for a in mount)
-    key = (int(substeps), bool(second_order), tuple(R_bc.ravel().tolist() + t_bc.ravel().tolist()))
+    mount_key = tuple(R_bc.ravel().tolist() + t_bc.ravel().tolist())
+    key = (int(substeps), bool(second_order), mount_key, bool(waves))
     if key not in per_vehicle:
-        per_vehicle[key] = _step_function(vehicle, key[0], key[1], (R_bc, t_bc))
+        per_vehicle[key] = _step_function(vehicle, key[0], key[1], (R_bc, t_bc), key[3])
     return per_vehicle[key]
 
 
@@ -305,52 +376,70 @@ def _step_function(
     substeps: int,
     second_order: bool = True,
     mount: tuple[np.ndarray, np.ndarray] | None = None,
+    waves: bool = False,
 ) -> tuple[ca.Function, ca.Function, ca.Function]:
     """The measurement model ``(z, u, m) -> (y_all, H_all)``, its second-order covariance
-    ``(z, u, P, m) -> (NY x NY)`` and the step ``(z[NZ], P[NZ x NZ], u[n], h, qd[NZ], m[3]) ->
+    ``(z, u, P, m) -> (NY x NY)`` and the step ``(z[nz], P[nz x nz], u[n], h, qd[nz], m[3], wave[2]) ->
     (z_next, P_next, y_all(z_next), H_all(z_next))``; ``m`` is the dock's offset from its anchor at
-    the measurement's time (NED, m) and ``mount = (R_bc, t_bc)`` the camera's (kind ``dock``)."""
+    the measurement's time (NED, m), ``mount = (R_bc, t_bc)`` the camera's (kind ``dock``) and
+    ``wave = (omega, zeta)`` the wave oscillators' (with ``waves``: ``nz = NZ_WAVES``, else ``NZ``)."""
     m = vehicle.model
-    z = ca.SX.sym("z", NZ)
-    P = ca.SX.sym("P", NZ, NZ)
+    nz = NZ_WAVES if waves else NZ
+    z = ca.SX.sym("z", nz)
+    P = ca.SX.sym("P", nz, nz)
     u = ca.SX.sym("u", vehicle.n_thrusters)
     h = ca.SX.sym("h")
-    qd = ca.SX.sym("qd", NZ)
+    qd = ca.SX.sym("qd", nz)
     motion = ca.SX.sym("dock_motion", 3)
+    wave = ca.SX.sym("wave", 2)
     if mount is None:
         from auvdock.camera.model import CameraMount
 
         mount = (CameraMount().R_bc(), CameraMount().t_bc())
 
-    def zdot(zz: ca.SX) -> ca.SX:
+    def water(zz: ca.SX) -> tuple[ca.SX, ca.SX | ca.DM, ca.SX | None]:
+        """The water at the vehicle: velocity (the current plus the waves'), its rate, its acceleration."""
         vc = ca.vertcat(zz[NX], zz[NX + 1], 0)
-        return ca.vertcat(m.dynamics(zz[0:NX], u, vc, ca.DM.zeros(3)), ca.SX.zeros(NZ - NX))
+        if not waves:
+            return vc, ca.DM.zeros(3), None
+        a_w = zz[WAVE_ACCEL]
+        return vc + zz[WAVE_VELOCITY], a_w, a_w
+
+    def zdot(zz: ca.SX) -> ca.SX:
+        vc, vc_dot, a_w = water(zz)
+        xdot = m.dynamics(zz[0:NX], u, vc, vc_dot, water_accel_ned=a_w)
+        if not waves:
+            return ca.vertcat(xdot, ca.SX.zeros(NZ - NX))
+        w, a = zz[WAVE_VELOCITY], zz[WAVE_ACCEL]
+        osc = -(wave[0] ** 2) * w - 2.0 * wave[1] * wave[0] * a
+        return ca.vertcat(xdot, ca.SX.zeros(NZ - NX), a, osc)
 
     z_next = rk4(zdot, z, h, substeps)
     F = ca.jacobian(z_next, z)
     P_next = ca.mtimes([F, P, F.T]) + ca.diag(qd) * h
     if second_order:
-        P_next = P_next + _second_order_covariance(zdot(z), z, P, h, NZ)
+        P_next = P_next + _second_order_covariance(zdot(z), z, P, h, nz)
     P_next = 0.5 * (P_next + P_next.T)
     # every measurement at a state zs (symbolic), then at z_next
-    zs = ca.SX.sym("zs", NZ)
-    vc = ca.vertcat(zs[NX], zs[NX + 1], 0)
+    zs = ca.SX.sym("zs", nz)
+    vc, vc_dot, a_w = water(zs)
     bias = {"accel": zs[_BIAS_A], "gyro": zs[_BIAS_G]}
     dock = (zs[DOCK] + motion, mount[0], mount[1])
     y = ca.vertcat(
         *(
-            measurements.expression(k, m, zs[0:NX], u, vc) + bias[k]
+            measurements.expression(k, m, zs[0:NX], u, vc, None, vc_dot, a_w) + bias[k]
             if k in bias
             else measurements.expression(k, m, zs[0:NX], u, vc, dock)
             for k in measurements.KINDS
         )
     )
-    meas = ca.Function("nav_meas", [zs, u, motion], [ca.densify(y), ca.densify(ca.jacobian(y, zs))])
-    Ps = ca.SX.sym("Ps", NZ, NZ)
+    suffix = "_waves" if waves else ""
+    meas = ca.Function("nav_meas" + suffix, [zs, u, motion], [ca.densify(y), ca.densify(ca.jacobian(y, zs))])
+    Ps = ca.SX.sym("Ps", nz, nz)
     # only the curved rows' (the accelerometer's) second-order term is used: the others are zero here
     y_curved = ca.vertcat(*(y[i] if i in set(_CURVED_ROWS.tolist()) else ca.SX(0) for i in range(_NY)))
     curv = ca.Function(
-        "nav_meas_curvature",
+        "nav_meas_curvature" + suffix,
         [zs, u, Ps, motion],
         [ca.densify(_second_order_covariance(y_curved, zs, Ps, 1.0, _NY))],
     )
@@ -359,10 +448,10 @@ def _step_function(
         meas,
         curv,
         ca.Function(
-            "nav_step",
-            [z, P, u, h, qd, motion],
+            "nav_step" + suffix,
+            [z, P, u, h, qd, motion, wave],
             [ca.densify(z_next), ca.densify(P_next), ca.densify(y_next), ca.densify(H_next)],
-            ["z", "P", "u", "h", "qd", "dock_motion"],
+            ["z", "P", "u", "h", "qd", "dock_motion", "wave"],
             ["z_next", "P_next", "y", "H"],
         ),
     )
@@ -385,6 +474,10 @@ class NavigationFilter:
     dock_motion : callable, optional
         ``t -> (offset (3,), velocity (3,))``: the dock's known motion about its anchor (NED, m,
         m/s; the heave); default: a dock at rest on its anchor.
+    waves : WaveModel, optional
+        The water's wave-frequency motion: with it the state has :data:`NZ_WAVES` components (the
+        orbital velocity and its rate, :data:`WAVE_VELOCITY`, :data:`WAVE_ACCEL`), and the water
+        at the vehicle is the current plus that velocity; without it, :data:`NZ` (a current only).
     """
 
     def __init__(
@@ -394,6 +487,7 @@ class NavigationFilter:
         dt: float,
         camera_mount: tuple[np.ndarray, np.ndarray] | None = None,
         dock_motion: DockMotionOffset | None = None,
+        waves: WaveModel | None = None,
     ) -> None:
         if not dt > 0:
             raise ValueError(f"dt must be > 0, got {dt}")
@@ -408,42 +502,56 @@ class NavigationFilter:
         self._t_bc = np.asarray(camera_mount[1], dtype=float).reshape(3)
         zero3 = np.zeros(3)
         self.dock_motion: DockMotionOffset = dock_motion or (lambda t: (zero3, zero3))
+        self.waves = waves
+        #: The filter state's dimension: :data:`NZ`, or :data:`NZ_WAVES` with a wave model.
+        self.nz = nz = NZ_WAVES if waves is not None else NZ
         meas, curv, fn = _step_functions(
-            vehicle, settings.substeps, settings.second_order_prediction, (self._R_bc, self._t_bc)
+            vehicle,
+            settings.substeps,
+            settings.second_order_prediction,
+            (self._R_bc, self._t_bc),
+            waves is not None,
         )
         self._fn, self.build = compiled_function(fn)
         self._meas, _ = compiled_function(meas)
         assert all(self._fn.sparsity_out(i).is_dense() for i in range(4))
         self._qd = settings.process_density()
+        self._in_wave = np.array([1.0, 0.5])
+        if waves is not None:
+            q_wave = np.zeros(6)
+            q_wave[3:6] = waves.accel_density() ** 2
+            self._qd = np.concatenate([self._qd, q_wave])
+            self._in_wave[:] = (waves.omega_rad_s, waves.damping_ratio)
         # zero-copy evaluation into preallocated arrays (BufferedFunction)
-        self._in_z = np.zeros(NZ)
-        self._in_P = np.zeros((NZ, NZ))
+        self._in_z = np.zeros(nz)
+        self._in_P = np.zeros((nz, nz))
         self._in_u = np.zeros(vehicle.n_thrusters)
         self._in_m = np.zeros(3)  # the dock's offset from its anchor at the evaluation's time
         # the measurements' second-order covariance at the prediction (zero-copy)
         self._second_order = bool(settings.second_order_prediction)
         self._curv = BufferedFunction(compiled_function(curv)[0])
         self._c_out = np.zeros((_NY, _NY))
-        self._c_in_z = np.zeros(NZ)
-        self._c_in_P = np.zeros((NZ, NZ))
+        self._c_in_z = np.zeros(nz)
+        self._c_in_P = np.zeros((nz, nz))
         for i, a in enumerate((self._c_in_z, self._in_u, self._c_in_P, self._in_m)):
             self._curv.bind_input(i, a)
         self._curv.bind_output(0, self._c_out)
         self._in_h = np.zeros(1)
-        self._out_z = np.zeros(NZ)
-        self._out_P = np.zeros((NZ, NZ))
+        self._out_z = np.zeros(nz)
+        self._out_P = np.zeros((nz, nz))
         self._out_y = np.zeros(_NY)
-        self._out_Ht = np.zeros((NZ, _NY))  # column-major H (NY x NZ) read as its transpose
+        self._out_Ht = np.zeros((nz, _NY))  # column-major H (NY x nz) read as its transpose
         self._step = BufferedFunction(self._fn)
-        for i, a in enumerate((self._in_z, self._in_P, self._in_u, self._in_h, self._qd, self._in_m)):
+        inputs = (self._in_z, self._in_P, self._in_u, self._in_h, self._qd, self._in_m, self._in_wave)
+        for i, a in enumerate(inputs):
             self._step.bind_input(i, a)
         for i, a in enumerate((self._out_z, self._out_P, self._out_y, self._out_Ht)):
             self._step.bind_output(i, a)
         # the measurement model alone, at an iterate of the iterated update (zero-copy too)
         self._meas_fast = BufferedFunction(self._meas)
-        self._m_in_z = np.zeros(NZ)
+        self._m_in_z = np.zeros(nz)
         self._m_out_y = np.zeros(_NY)
-        self._m_out_Ht = np.zeros((NZ, _NY))
+        self._m_out_Ht = np.zeros((nz, _NY))
         for i, a in enumerate((self._m_in_z, self._in_u, self._in_m)):
             self._meas_fast.bind_input(i, a)
         for i, a in enumerate((self._m_out_y, self._m_out_Ht)):
@@ -461,8 +569,8 @@ class NavigationFilter:
         self.gated: dict[str, int] = {}
         self._gated_run: dict[str, int] = {}
         self._gate_d2 = {k: chi2_quantile(READING_GATE, measurements.KINDS[k]) for k in GATED_KINDS}
-        self.z = np.zeros(NZ)
-        self.P = np.eye(NZ)
+        self.z = np.zeros(nz)
+        self.P = np.eye(nz)
         self.t: float | None = None
         self.reset(np.zeros(NX))
 
@@ -480,7 +588,7 @@ class NavigationFilter:
         x0 = np.asarray(x0, dtype=float).reshape(NX)
         st = self.settings
         std = st.prior_state_std() if x0_std is None else np.asarray(x0_std, float).reshape(NX)
-        self.z = np.concatenate([x0, np.zeros(NZ - NX)])
+        self.z = np.concatenate([x0, np.zeros(self.nz - NX)])
         if dock_anchor is not None:
             self.z[DOCK] = np.asarray(dock_anchor, dtype=float).reshape(3)
         extra = np.concatenate(
@@ -491,6 +599,9 @@ class NavigationFilter:
                 np.full(3, st.prior_dock_std_m),
             ]
         )
+        if self.waves is not None:  # the oscillators start at their stationary spread
+            w_std = np.asarray(self.waves.velocity_std_m_s, dtype=float)
+            extra = np.concatenate([extra, w_std, self.waves.omega_rad_s * w_std])
         self.P = np.diag(np.concatenate([std, extra]) ** 2)
         self.t = None
 
@@ -512,6 +623,8 @@ class NavigationFilter:
             dock_anchor_ned=self.z[DOCK].copy(),
             dock_cov=Pdd.copy(),
             relative_cov=Ppp + Pdd - Ppd - Ppd.T,
+            wave_velocity_ned=None if self.waves is None else self.z[WAVE_VELOCITY].copy(),
+            wave_cov=None if self.waves is None else self.P[WAVE_VELOCITY, WAVE_VELOCITY].copy(),
         )
 
     # --- one step ------------------------------------------------------------------------
@@ -717,7 +830,7 @@ class NavigationFilter:
             ang = np.flatnonzero(np.isin(rows, _ANGLE_ROWS))
         inv_std = 1.0 / np.sqrt(var)
         for it in range(IEKF_MAX_ITER):
-            H = Ht[:, rows].T  # (m, NZ)
+            H = Ht[:, rows].T  # (m, nz)
             r = values - y[rows] - H @ (z_pred - z_i)
             if len(ang):
                 r[ang] = (r[ang] + math.pi) % (2 * math.pi) - math.pi
@@ -747,7 +860,7 @@ class NavigationFilter:
             if float(np.max(np.abs(y[rows] - y_lin) * inv_std)) < IEKF_LIN_TOL:
                 break
         self.z = z_i
-        A = np.eye(NZ) - K @ H
+        A = np.eye(self.nz) - K @ H
         R = np.diag(var) if R_extra is None else np.diag(var) + R_extra
         self.P = A @ P @ A.T + K @ R @ K.T
         return nis, len(rows), set()

@@ -44,7 +44,7 @@ import casadi as ca
 import numpy as np
 
 from auvdock.estimation.estimate import Estimate
-from auvdock.estimation.navigation_filter import NavEstimate, NavigationFilter, NavigationSettings
+from auvdock.estimation.navigation_filter import NavEstimate, NavigationFilter, NavigationSettings, WaveModel
 from auvdock.sensing.readings import FlowSensing, Readings
 from auvdock.vehicle.model import rk4
 from auvdock.vehicle.state import ANG, ATT, ETA, LIN, NX
@@ -60,6 +60,8 @@ __all__ = [
     "ESTIMATION_SERIES",
     "FORECAST_HORIZONS_S",
     "FORECAST_SERIES",
+    "WAVE_SERIES",
+    "wave_model",
     "forecast_rmse_key",
     "EstimationStage",
     "TruthStage",
@@ -78,6 +80,13 @@ ESTIMATION_SERIES: dict[str, tuple[int, ...]] = {
     "estimated_flow_std_m_s": (3,),
     "estimated_dock_position_m": (3,),
     "relative_position_std_m": (3,),
+}
+
+#: What the filter stage also records with a wave model: the water's wave-frequency velocity at the
+#: vehicle (NED, m/s) and its std.
+WAVE_SERIES: dict[str, tuple[int, ...]] = {
+    "estimated_wave_velocity_ned_m_s": (3,),
+    "estimated_wave_velocity_std_m_s": (3,),
 }
 
 #: How far ahead the dock's forecast is recorded (``dock_forecast_m``, with ``sensors.dock_telemetry``), s.
@@ -173,6 +182,9 @@ class NavigationStage:
         With ``sensors.dock_telemetry`` for a deployable controller: the dock whose motion is forecast
         from the telemetry readings (kind ``dock_motion``), which this stage feeds it; it must be
         ``dock`` too (the filter's dock moves as forecast).
+    waves : WaveModel, optional
+        The water's wave-frequency motion, as the filter models it (:func:`wave_model`); None: a
+        current only.
     """
 
     mode = "filter"
@@ -188,11 +200,16 @@ class NavigationStage:
         dock: DockMotion | None = None,
         camera_mount: tuple[np.ndarray, np.ndarray] | None = None,
         telemetry: TelemetryDock | None = None,
+        waves: WaveModel | None = None,
     ) -> None:
         if telemetry is not None and dock is not telemetry:
             raise ValueError("the telemetry's forecast dock must be the stage's dock")
         self.telemetry = telemetry
-        self.series_shapes = {**ESTIMATION_SERIES, **(FORECAST_SERIES if telemetry is not None else {})}
+        self.series_shapes = {
+            **ESTIMATION_SERIES,
+            **(FORECAST_SERIES if telemetry is not None else {}),
+            **(WAVE_SERIES if waves is not None else {}),
+        }
         self.dock = dock
         self.dock_anchor = np.zeros(3) if dock is None else np.asarray(dock.position_ned_m, dtype=float)
         motion = None
@@ -202,7 +219,9 @@ class NavigationStage:
             def motion(t: float) -> tuple[np.ndarray, np.ndarray]:
                 return np.asarray(dock.position(t), dtype=float) - anchor, np.asarray(dock.velocity(t), float)
 
-        self.filter = NavigationFilter(settings, vehicle, dt, camera_mount=camera_mount, dock_motion=motion)
+        self.filter = NavigationFilter(
+            settings, vehicle, dt, camera_mount=camera_mount, dock_motion=motion, waves=waves
+        )
         self.settle_s = float(settings.settle_s)
         self.dt = float(dt)
         self.start_guess = np.asarray(start_guess, dtype=float).copy()
@@ -290,11 +309,30 @@ class NavigationStage:
             "estimated_dock_position_m": dock_now,
             "relative_position_std_m": np.sqrt(np.clip(np.diag(est.relative_cov), 0.0, None)),
         }
+        if est.wave_velocity_ned is not None and est.wave_cov is not None:
+            series["estimated_wave_velocity_ned_m_s"] = est.wave_velocity_ned.copy()
+            series["estimated_wave_velocity_std_m_s"] = np.sqrt(np.clip(np.diag(est.wave_cov), 0.0, None))
         if self.telemetry is not None:
             ahead = readings.t + np.asarray(FORECAST_HORIZONS_S)
             series["dock_forecast_m"] = self.telemetry.position(ahead) + offset
             series["dock_forecast_std_m"] = self.telemetry.std(ahead)
         return out, series
+
+
+def wave_model(mission: Mission) -> WaveModel | None:
+    """The wave model of a mission's navigation filter (``navigation.waves``): with ``auto`` and waves in
+    the sea, oscillators at the sea's mean frequency with its orbital spread at the start depth
+    (:meth:`auvdock.world.waves.WaveComponents.orbital_statistics`); else None."""
+    if mission.navigation.waves == "off" or mission.sea.waves is None:
+        return None
+    sea = mission.build_sea()
+    if sea is None:
+        return None
+    omega, std = sea.orbital_statistics(float(mission.start.state[2]))
+    if not math.isfinite(omega) or not float(np.max(std)) > 0:
+        return None
+    n, e, d = (float(v) for v in std)
+    return WaveModel(omega, mission.navigation.wave_damping_ratio, (n, e, d))
 
 
 def build_estimation(
@@ -313,6 +351,7 @@ def build_estimation(
             dock=dock,
             camera_mount=(mount.R_bc(), mount.t_bc()),
             telemetry=telemetry,
+            waves=wave_model(mission),
         )
     if telemetry is not None:
         raise ValueError("sensors.dock_telemetry: the dock's forecast needs estimation: filter")

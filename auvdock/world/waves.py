@@ -391,6 +391,27 @@ class WaveComponents:
         W[12, FSc], W[13, FSc], W[14, FCs] = -A * k * cb, -A * k * sb, A * k  # du_d/d(n, e, d)
         return W.reshape(15, 4 * n)
 
+    def orbital_statistics(self, depth_m: float) -> tuple[float, np.ndarray]:
+        """The orbital velocity's statistics at ``depth_m`` (m below the mean surface): its mean
+        frequency and its standard deviation per axis, from the components' amplitudes alone (the sea
+        state, as a wave buoy reports it; not the realisation's phases).
+
+        Returns ``(omega, std)``: the velocity-variance-weighted mean of the fixed-point frequencies,
+        rad/s (nan with no component), and the std (3,) of the north, east and down components, m/s:
+        ``var_n = sum a^2 sigma^2 Fc^2 cos^2 b / 2`` (east: ``sin^2 b``; down: ``Fs^2``), ``sigma`` the
+        intrinsic frequency and ``Fc, Fs`` the depth factors of linear theory.
+        """
+        if self.n_components == 0:
+            return math.nan, np.zeros(3)
+        Fc, Fs = _depth_factors(self.wavenumber_rad_m, np.asarray(float(depth_m)), self.water_depth_m)
+        A2 = 0.5 * (self.amplitude_m * self.intrinsic_omega_rad_s) ** 2
+        cb, sb = np.cos(self.direction_rad), np.sin(self.direction_rad)
+        var = np.array([np.sum(A2 * (Fc * cb) ** 2), np.sum(A2 * (Fc * sb) ** 2), np.sum(A2 * Fs**2)])
+        weight = A2 * (Fc**2 + Fs**2)
+        total = float(np.sum(weight))
+        omega = float(np.sum(weight * self.omega_rad_s) / total) if total > 0 else math.nan
+        return omega, np.sqrt(var)
+
     def velocity(self, p_ned: np.ndarray, t: Any) -> np.ndarray:
         """Orbital velocity (..., 3) NED m/s at ``p_ned`` (..., 3) m and t (s)."""
         return self.kinematics(p_ned, t).velocity_ned_m_s
