@@ -16,8 +16,13 @@ as the RMS error (m) and as a fraction of the heave's standard deviation, pooled
 the share of the true positions inside the forecast's +-2 std (nominal 95.4 %).  Origins in a burst
 of lost frames count: a forecaster has to forecast on.
 
+With ``--source telemetry`` the positions are the dock's own telemetry instead (what the deployable
+controllers forecast from: ``sensors.dock_telemetry``'s defaults, 10 Hz, 0.25 s late, 5 cm, 2 % lost,
+no bursts: the dock's motion unit never loses sight of the dock).
+
     python benchmarks/dock_forecast.py [--seeds 3] [--missions basin_regular ...] [--train 180]
                                        [--duration 300] [--noise 0.02] [--outliers 0.002]
+                                       [--source camera|telemetry]
 """
 
 from __future__ import annotations
@@ -25,11 +30,13 @@ from __future__ import annotations
 import argparse
 import math
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
 from auvdock.config.mission import load_mission
 from auvdock.estimation.dock_forecast import DockForecaster
+from auvdock.sensing.settings import DockTelemetrySettings
 from auvdock.world.dock import DockMotion
 
 MISSIONS = ("basin_regular", "pacwave_common_10m", "pacwave_energetic_10m")
@@ -46,14 +53,36 @@ NOISE_M = {"basin_regular": 0.005}
 DEFAULT_NOISE_M = 0.02
 
 
+@dataclass(frozen=True)
+class Source:
+    """Where the dock's positions come from: rate (Hz), latency (s), share lost, bursts lost or not."""
+
+    name: str
+    rate_hz: float
+    latency_s: float
+    lost: float
+    bursts: bool
+
+
+CAMERA = Source("camera fixes", RATE_HZ, LATENCY_S, LOST, True)
+_TEL = DockTelemetrySettings()
+#: the dock's own telemetry (sensors.dock_telemetry's defaults): never out of view
+TELEMETRY = Source("the dock's telemetry", _TEL.rate_hz, _TEL.latency_s, _TEL.dropout, False)
+
+
 def camera_fixes(
-    dock: DockMotion, t_end: float, noise_m: float, outliers: float, rng: np.random.Generator
+    dock: DockMotion,
+    t_end: float,
+    noise_m: float,
+    outliers: float,
+    rng: np.random.Generator,
+    source: Source = CAMERA,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Fix times (n,), positions (n, 3) NED m and stds (n, 3) m, as the camera would give them."""
-    t = np.arange(0.0, t_end, 1.0 / RATE_HZ)
-    keep = rng.uniform(size=t.size) >= LOST
+    """Fix times (n,), positions (n, 3) NED m and stds (n, 3) m, as the source would give them."""
+    t = np.arange(0.0, t_end, 1.0 / source.rate_hz)
+    keep = rng.uniform(size=t.size) >= source.lost
     start = rng.exponential(BURST_EVERY_S)
-    while start < t_end:
+    while source.bursts and start < t_end:
         keep &= ~((t >= start) & (t < start + rng.uniform(*BURST_S)))
         start += rng.exponential(BURST_EVERY_S)
     t = t[keep]
@@ -64,13 +93,20 @@ def camera_fixes(
 
 
 def run_one(
-    dock: DockMotion, train_s: float, duration_s: float, noise_m: float, outliers: float, seed: int
+    dock: DockMotion,
+    train_s: float,
+    duration_s: float,
+    noise_m: float,
+    outliers: float,
+    seed: int,
+    source: Source = CAMERA,
 ) -> dict[str, np.ndarray | list[float] | float]:
     """One sea: errors (n_origins, n_horizons) of the forecast, persistence and climatology (heave, m),
     the forecast's std, the heave's std, and the times of each update and 10-step forecast call (s)."""
     rng = np.random.default_rng([seed, 0xD0C])
     t_end = train_s + duration_s + HORIZONS_S[-1] + 1.0
-    t, p, s = camera_fixes(dock, t_end, noise_m, outliers, rng)
+    t, p, s = camera_fixes(dock, t_end, noise_m, outliers, rng, source)
+    latency = source.latency_s
     f = DockForecaster()
     err, pers, clim, std = [], [], [], []
     t_update: list[float] = []
@@ -80,7 +116,7 @@ def run_one(
     every = int(round(0.5 / CONTROL_DT_S))
     mpc = CONTROL_DT_S * np.arange(1, MPC_STEPS + 1)
     for k, t0 in enumerate(steps):
-        while i < t.size and t[i] <= t0 - LATENCY_S:
+        while i < t.size and t[i] <= t0 - latency:
             a = time.perf_counter()
             f.update(t[i], p[i], s[i])
             t_update.append(time.perf_counter() - a)
@@ -95,7 +131,7 @@ def run_one(
             continue
         mean, sd = f.forecast(t0, t0 + HORIZONS_S)
         truth = dock.position(t0 + HORIZONS_S)[:, 2]
-        recent = (t > t0 - LATENCY_S - 300.0) & (t <= t0 - LATENCY_S)
+        recent = (t > t0 - latency - 300.0) & (t <= t0 - latency)
         err.append(mean[:, 2] - truth)
         std.append(sd[:, 2])
         pers.append(p[i - 1, 2] - truth)
@@ -124,22 +160,34 @@ def main() -> None:
     ap.add_argument("--duration", type=float, default=300.0, help="scored time per sea, s")
     ap.add_argument("--noise", type=float, default=None, help="the camera's noise per axis, m")
     ap.add_argument("--outliers", type=float, default=0.0, help="share of fixes 0.3-1 m off (wrong decodes)")
+    ap.add_argument(
+        "--source",
+        choices=("camera", "telemetry"),
+        default="camera",
+        help="camera: the camera's fixes (15 Hz, 0.1 s, bursts lost); telemetry: the dock's own "
+        "(sensors.dock_telemetry's defaults: 10 Hz, 0.25 s, 5 cm, 2 %% lost, never out of view)",
+    )
     args = ap.parse_args()
+    source = CAMERA if args.source == "camera" else TELEMETRY
     t_start = time.perf_counter()
     all_update: list[float] = []
     all_forecast: list[float] = []
+    bursts = ""
+    if source.bursts:
+        bursts = f" and {BURST_S[0]:g}-{BURST_S[1]:g} s bursts about every {BURST_EVERY_S:g} s"
     print(
-        f"dock forecast from camera fixes: {RATE_HZ:g} Hz, {LATENCY_S:g} s late, {LOST:.0%} frames lost "
-        f"and {BURST_S[0]:g}-{BURST_S[1]:g} s bursts about every {BURST_EVERY_S:g} s; trained "
+        f"dock forecast from {source.name}: {source.rate_hz:g} Hz, {source.latency_s:g} s late, "
+        f"{source.lost:.0%} lost{bursts}; trained "
         f"{args.train:g} s, scored every 0.5 s for {args.duration:g} s; heave (down) errors"
     )
     for name in args.missions:
-        noise = args.noise if args.noise is not None else NOISE_M.get(name, DEFAULT_NOISE_M)
+        default_noise = NOISE_M.get(name, DEFAULT_NOISE_M) if args.source == "camera" else _TEL.std_m
+        noise = args.noise if args.noise is not None else default_noise
         runs = []
         for seed in range(args.seeds):
             m = load_mission(name).with_updates({"seed": seed})
             dock = m.build_dock(m.build_sea())
-            runs.append(run_one(dock, args.train, args.duration, noise, args.outliers, seed))
+            runs.append(run_one(dock, args.train, args.duration, noise, args.outliers, seed, source))
         sig = math.sqrt(float(np.mean([r["var"] for r in runs])))
         err = np.concatenate([r["err"] for r in runs])
         std = np.concatenate([r["std"] for r in runs])
@@ -149,7 +197,7 @@ def main() -> None:
             "climatology": np.concatenate([r["clim"] for r in runs]),
         }
         print(
-            f"\n{name}: {args.seeds} seas, heave std {sig:.3f} m, camera noise {noise:g} m, "
+            f"\n{name}: {args.seeds} seas, heave std {sig:.3f} m, noise {noise:g} m, "
             f"{err.shape[0]} forecasts"
         )
         print(f"  {'horizon s':<22}" + "".join(f"{h:>8g}" for h in HORIZONS_S))

@@ -374,6 +374,7 @@ class FSEMPC:
             est = self.estimator.step(eta, nu_r, s.accel_m_s2, float(s.depth_rate_m_s), u_prev)
         tau = np.zeros(6)
         t0 = time.perf_counter()
+        water = meas.water_for_prediction(est.flow_ned)  # the slow current, plus the waves' velocity
         # the estimator's state is [eta; nu_r + f; nu_2] (ETA, LIN, ANG)
         if self.law is not None:
             with timing.part("perception"):
@@ -385,16 +386,16 @@ class FSEMPC:
             # MPC's disturbance observer predicts with the thrust really applied, this input included
             w = self._info_weight(est.covariance, meas)
             tau, u_off = w * tau, w * u_off
-            r = self.mpc.solve(meas.t, est.state, u_prev, est.flow_ned)
+            r = self.mpc.solve(meas.t, est.state, u_prev, water)
             r.thrust = np.clip(r.thrust + u_off, self.vehicle.thrust_min, self.vehicle.thrust_max)
         elif not self.explores:
-            r = self.mpc.solve(meas.t, est.state, u_prev, est.flow_ned)
+            r = self.mpc.solve(meas.t, est.state, u_prev, water)
         else:
             G = self.estimator.gramian()
             depth_row = self.estimator.R(est.state[ATT])[2, :]
             weight = self._info_weight(est.covariance, meas)
             extra = np.concatenate([_six(G), [float(information_lower_bound(G))], depth_row, [weight]])
-            r = self.mpc.solve(meas.t, est.state, u_prev, est.flow_ned, extra=extra)
+            r = self.mpc.solve(meas.t, est.state, u_prev, water, extra=extra)
         series = {
             "flow_estimate_m_s": est.flow_body,
             "flow_covariance": est.covariance,

@@ -49,6 +49,11 @@ class Estimate:
         How much of its prior uncertainty about the current the navigation filter still has:
         ``sqrt(lambda_max(P_current)) / prior std``, capped at 1 (1: nothing learnt; None without a
         navigation filter).  What an information reward is measured on (the filter really run).
+    wave_velocity_ned : ndarray (3,) or None
+        The water's wave-frequency velocity at the vehicle in {n}, m/s: the navigation filter's
+        estimate with a wave model (``navigation.waves``), else None.  The current (``current_ned``,
+        and what a flow filter estimates) is the slow part of the water; the controllers' prediction
+        adds this to it (held over the horizon, as Oracle's true flow is).
     """
 
     t: float
@@ -61,6 +66,13 @@ class Estimate:
     relative_cov: np.ndarray | None = None
     dock_fix_t: float | None = None
     current_uncertainty: float | None = None
+    wave_velocity_ned: np.ndarray | None = None
+
+    def water_for_prediction(self, current_ned: np.ndarray) -> np.ndarray:
+        """The water velocity (3,, {n}, m/s) a controller's prediction holds over its horizon: its
+        ``current_ned`` (3,) estimate plus the wave-frequency velocity where the stage estimates it."""
+        c = np.asarray(current_ned, dtype=float)
+        return c if self.wave_velocity_ned is None else c + np.asarray(self.wave_velocity_ned, dtype=float)
 
     def without_flow(self) -> Estimate:
         """The same estimate with ``flow_ned`` removed (for controllers that may not read it)."""

@@ -299,6 +299,7 @@ class NavigationStage:
             relative_cov=est.relative_cov.copy(),
             dock_fix_t=self.dock_fix_t,
             current_uncertainty=share,
+            wave_velocity_ned=None if est.wave_velocity_ned is None else est.wave_velocity_ned.copy(),
         )
         dock_now = (np.zeros(3) if self.dock is None else np.asarray(self.dock.position(readings.t))) + offset
         series = {
