@@ -1,9 +1,11 @@
 """Time NavigationFilter.step: median, p95, p99 and where the time goes.
 
-    python benchmarks/navigation_step.py [--steps 4000] [--never-compile]
+    python benchmarks/navigation_step.py [--steps 4000] [--never-compile] [--waves]
 
 BlueROV2 Heavy, dt = 0.05 s, 5-6 readings a step (attitude, gyro, accel, depth every step,
 position every 10th, DVL every step).  Readings are precomputed so only the filter is timed.
+``--waves``: the filter with its wave model (29 states: PacWave's common sea at 10 m, as
+``pacwave_common_10m``'s filter has it) instead of the current alone (23).
 """
 
 from __future__ import annotations
@@ -19,18 +21,20 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--steps", type=int, default=4000)
     ap.add_argument("--never-compile", action="store_true", help="AUVDOCK_COMPILE=never")
+    ap.add_argument("--waves", action="store_true", help="the filter with its wave states")
     args = ap.parse_args()
     if args.never_compile:
         os.environ["AUVDOCK_COMPILE"] = "never"
-    from auvdock.estimation.navigation_filter import NavigationFilter, NavigationSettings
+    from auvdock.estimation.navigation_filter import NavigationFilter, NavigationSettings, WaveModel
     from auvdock.sensing import measurements as ms
     from auvdock.sensing.readings import Reading
     from auvdock.vehicle import load_vehicle
 
     dt = 0.05
     v = load_vehicle("bluerov2_heavy")
-    nav = NavigationFilter(NavigationSettings(), v, dt)
-    print(f"step function: {nav.build}")
+    waves = WaveModel(0.723, 0.1, (0.071, 0.161, 0.174)) if args.waves else None
+    nav = NavigationFilter(NavigationSettings(), v, dt, waves=waves)
+    print(f"step function: {nav.build}; {nav.nz} states")
     rng = np.random.default_rng(0)
     x = np.zeros(12)
     x[2] = 5.0
@@ -57,7 +61,7 @@ def main() -> None:
     # where the time goes: the CasADi call alone, the update alone (numpy)
     for _ in range(min(2000, args.steps)):
         a = pc()
-        nav._evaluate(dt)
+        nav._evaluate(dt, 0.0)
         t_pred.append(pc() - a)
     rows, ang, _, _ = nav._rows[tuple(r.kind for r in steps[1])]
     vals = np.concatenate([r.value for r in steps[1]])

@@ -49,10 +49,12 @@ the rest clipped at zero; the covariance (its inverse transform) is tapered to z
 the fixes so far.  A fix outside ``outlier_gate`` of the forecast is rejected; ``max_rejections`` in a
 row mean the dock (or the frame it is measured in) has moved, and the forecaster starts again from them.
 
-Why this method (measured with ``benchmarks/dock_forecast.py``'s camera on the missions' docks and a
-gamma 7 JONSWAP, 2 cm noise, 5 % frames lost and bursts; errors as fractions of the heave's std at
-0.5 / 1 / 2 / 3 / 5 s ahead)
----------------------------------------------------------------------------------------------------
+Why this method
+---------------
+Measured with ``benchmarks/dock_forecast.py``'s camera on the missions' docks and a gamma 7 JONSWAP,
+2 cm noise, 5 % frames lost and bursts; errors as fractions of the heave's std at 0.5 / 1 / 2 / 3 / 5 s
+ahead.
+
 * The best linear predictor of a stationary Gaussian process is fixed by its covariance and takes
   irregular times, gaps and each fix's noise as they come.  PacWave's common sea: 0.13 / 0.26 / 0.47 /
   0.45 / 0.64 (persistence, the last fix held: 0.51 / 0.89 / 1.46 / 1.72 / 1.79).  Given the *true*
