@@ -116,3 +116,17 @@ def test_the_basin_mission_captures_forecasting_the_dock_from_its_telemetry(seed
     assert o["reason"] == "captured", o
     assert not o["collided"] and o["contact_speed_m_s"] < 0.15
     assert o["dock_forecast_rmse_1s_m"] < 0.03
+
+
+def test_with_the_waves_off_the_basin_mission_docks_as_before():
+    """The basin mission without its waves: no wave model in the filter (the water is a current), the
+    dock still heaving on its drive and forecast from its telemetry; CE captures without collision."""
+    import auvdock
+    from auvdock.estimation.stage import wave_model
+
+    calm = load_mission("basin_regular").with_updates(sea__waves=None)
+    assert wave_model(calm) is None
+    run = auvdock.simulate(calm, controller="ce", seed=3)
+    o = run.outcome
+    assert o["reason"] == "captured" and not o["collided"], o
+    assert "estimated_wave_velocity_ned_m_s" not in run.series
