@@ -50,3 +50,23 @@ def test_a_small_regular_wave_asks_for_its_inertia_and_linear_drag(vehicle):
     calm = station_keeping(vehicle, regular_wave(1e-9, T), depth, duration_s=1.0, dt_s=0.5)
     assert calm.wrench_p99_N[2] == pytest.approx(net_buoyancy, rel=1e-6)
     assert calm.holds and calm.utilisation_p99 == pytest.approx(net_buoyancy / 4 / 39.9, rel=1e-3)
+
+
+def test_the_sweep_report_puts_each_sea_state_beside_its_station_keeping(vehicle):
+    """A sweep's rows over two wave heights: one table row per sea state, its utilisation the one
+    station_keeping computes for that sea, the captures counted per controller; none without waves."""
+    from auvdock.config.mission import load_mission
+    from auvdock.sweep.station import station_keeping_report
+
+    base = load_mission("basin_regular")
+    runs = [(0.127, "ce", True), (0.127, "ce", False), (0.127, "oracle", True), (0.4, "ce", False)]
+    rows = [{"sea.waves.height_m": h, "controller": c, "docked": d, "status": "done"} for h, c, d in runs]
+    header, body = station_keeping_report(rows, base.to_yaml(), ["sea.waves.height_m"])
+    assert header[0] == "sea.waves.height_m" and header[-2:] == ["ce", "oracle"]
+    assert [r[0] for r in body] == ["0.127", "0.4"]
+    assert body[0][-2:] == ["1/2", "1/1"] and body[1][-2:] == ["0/1", "0/0"]
+    sea = base.with_updates({"sea.waves.height_m": 0.4}).build_sea()
+    direct = station_keeping(vehicle, sea, base.dock.position_ned_m[2])
+    assert body[1][1] == f"{direct.utilisation_p99:.2f}" and body[1][3] == ("yes" if direct.holds else "no")
+    calm = load_mission("tank_0p6hz")
+    assert station_keeping_report(rows, calm.to_yaml(), ["sea.waves.height_m"]) == ([], [])

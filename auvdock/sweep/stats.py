@@ -1,7 +1,8 @@
 """Statistics, figures and the Markdown summary of a sweep (:mod:`auvdock.sweep`), from its HDF5 file alone.
 
 It reads the results file with :func:`auvdock.campaign.read_results` (the one layout of
-compare and sweep results) and imports nothing from :mod:`auvdock.sweep`, which uses it.
+compare and sweep results) and imports from :mod:`auvdock.sweep` only its leaf modules (rates,
+exploration, station), never the package, which uses it.
 
 Success is ``docked`` over all runs of a group, a run that failed (status ``failed``: it
 raised, or its worker died twice) counting as not docked (the failure count is shown
@@ -20,7 +21,9 @@ and n of n, unlike the normal approximation.
   controller, cells annotated ``docked/runs``;
 * ``distributions.png`` -- time to dock and contact speed of the docked runs, a box per
   controller;
-* ``summary.md`` -- the tables behind the figures, and the runs that failed.
+* ``summary.md`` -- the tables behind the figures, and the runs that failed; with waves in the base
+  mission, what holding station takes per sea state beside each controller's captures there
+  (:mod:`auvdock.sweep.station`).
 
 A numeric field with more than :data:`MAX_LEVELS` distinct values (random draws) is put
 into :data:`N_BINS` equal-width bins; others are shown value by value.  Figures use a fixed
@@ -46,6 +49,7 @@ from auvdock.campaign.plots import CONTROLLER_ORDER, controller_color, controlle
 from auvdock.campaign.store import read_results
 from auvdock.sweep.exploration import exploration_report
 from auvdock.sweep.rates import Z95, failed, success_rate, wilson_interval
+from auvdock.sweep.station import station_keeping_report
 
 __all__ = [
     "Z95",
@@ -535,6 +539,17 @@ def report_sweep(h5_path: str | Path, out_dir: str | Path) -> list[Path]:
             )
             md.append("\n".join(f"- {f}" for f in findings) + "\n")
             md.append(_md_table(eh, et))
+        sh, st = station_keeping_report(rows, attrs.get("base_mission_yaml", ""), varied)
+        if st:
+            md.append("## Station keeping per sea state\n")
+            md.append(
+                "Per sea state, what holding station there takes from the one model (the thrusters' "
+                "minimum-norm utilisation against the orbital drag and inertia, 99th percentile and maximum "
+                "over ten minutes of the sea, the vehicle still at the dock's depth and heading; "
+                "`auvdock.world.station_keeping`) and each controller's captures there: a failure in a sea "
+                "the vehicle holds with margin is not the thrusters'.\n"
+            )
+            md.append(_md_table(sh, st))
     ctrls = _controllers(rows)
     for f in [*varied, *me_cols]:
         labels, _, table = _grouped(rows, f, columns[f])
