@@ -59,7 +59,10 @@ class TelemetryDock(TranslatingDock):
         previous sample)."""
         return self.forecaster.update(t, np.asarray(displacement_ned_m, dtype=float), std_m)
 
-    def _forecast(self, t: float | np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def forecast(self, t: float | np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Position (NED, m), velocity (m/s) and std (m) at time(s) ``t`` (s), each shape ``t.shape + (3,)``,
+        from one solve of the forecaster (what :meth:`position`, :meth:`velocity` and :meth:`std` each
+        take one of)."""
         tt = np.asarray(t, dtype=float)
         shape = tt.shape + (3,)
         if self.forecaster.n_measurements == 0:
@@ -73,19 +76,19 @@ class TelemetryDock(TranslatingDock):
 
     def position(self, t: float | np.ndarray) -> np.ndarray:
         """Expected dock position (north, east, down), m, at time(s) t (s); shape (..., 3)."""
-        return self._forecast(t)[0]
+        return self.forecast(t)[0]
 
     def velocity(self, t: float | np.ndarray) -> np.ndarray:
         """Expected dock velocity (north, east, down), m/s, at time(s) t (s); shape (..., 3)."""
-        return self._forecast(t)[1]
+        return self.forecast(t)[1]
 
     def std(self, t: float | np.ndarray) -> np.ndarray:
         """Standard deviation of the forecast position per axis, m, at time(s) t (s); shape (..., 3)."""
-        return self._forecast(t)[2]
+        return self.forecast(t)[2]
 
     def trajectory(self, t0: float, dt: float, n_steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Dock motion at ``t0 + k dt`` for k = 0..n_steps (one forecast for position and velocity):
         times (n_steps + 1,) s, positions and velocities (n_steps + 1, 3) NED m and m/s."""
         t = t0 + dt * np.arange(n_steps + 1)
-        p, v, _ = self._forecast(t)
+        p, v, _ = self.forecast(t)
         return t, p, v

@@ -217,7 +217,8 @@ class NavigationStage:
             anchor = self.dock_anchor
 
             def motion(t: float) -> tuple[np.ndarray, np.ndarray]:
-                return np.asarray(dock.position(t), dtype=float) - anchor, np.asarray(dock.velocity(t), float)
+                _, p, v = dock.trajectory(t, 0.0, 0)  # one evaluation for both (a forecast dock's: one solve)
+                return np.asarray(p[0], dtype=float) - anchor, np.asarray(v[0], dtype=float)
 
         self.filter = NavigationFilter(
             settings, vehicle, dt, camera_mount=camera_mount, dock_motion=motion, waves=waves
@@ -315,8 +316,9 @@ class NavigationStage:
             series["estimated_wave_velocity_std_m_s"] = np.sqrt(np.clip(np.diag(est.wave_cov), 0.0, None))
         if self.telemetry is not None:
             ahead = readings.t + np.asarray(FORECAST_HORIZONS_S)
-            series["dock_forecast_m"] = self.telemetry.position(ahead) + offset
-            series["dock_forecast_std_m"] = self.telemetry.std(ahead)
+            position, _, std = self.telemetry.forecast(ahead)
+            series["dock_forecast_m"] = position + offset
+            series["dock_forecast_std_m"] = std
         return out, series
 
 
