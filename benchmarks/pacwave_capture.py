@@ -1,7 +1,7 @@
 """What fails at PacWave, variant by variant: ``pacwave_common_10m`` (Hs 1.75 m, the dock 10 m below the
 WEC buoy) flown on the same seeds with one thing changed at a time.
 
-Variants (each on seeds 0..``--seeds``-1):
+Variants (each on ``--seeds`` seeds from ``--first-seed``):
 
 * ``camera``: the mission as shipped (the camera alone, no acoustic positioning), CE;
 * ``acoustic``: acoustic positioning added, Oracle (told the sea and the dock), CE told the dock's true
@@ -16,7 +16,7 @@ Prints per variant how each run ended, the captures, the forecast's displacement
 for the camera alone without the wave model (``navigation.waves: off``, seed 1), how far the vehicle got
 from the dock.
 
-    python benchmarks/pacwave_capture.py [--seeds 8] [--jobs 2]
+    python benchmarks/pacwave_capture.py [--seeds 8] [--first-seed 0] [--jobs 2]
 """
 
 from __future__ import annotations
@@ -66,11 +66,13 @@ def one(job: tuple[int, int, str]) -> tuple[int, int, str, float, float, float]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--seeds", type=int, default=8)
+    ap.add_argument("--seeds", type=int, default=8, help="how many seeds")
+    ap.add_argument("--first-seed", type=int, default=0, help="the first of them")
     ap.add_argument("--jobs", type=int, default=2)
     args = ap.parse_args()
     t0 = time.perf_counter()
-    jobs = [(i, s, json.dumps(kw)) for i, (_, _, kw) in enumerate(VARIANTS) for s in range(args.seeds)]
+    seeds = range(args.first_seed, args.first_seed + args.seeds)
+    jobs = [(i, s, json.dumps(kw)) for i, (_, _, kw) in enumerate(VARIANTS) for s in seeds]
     jobs.append((0, 1, json.dumps({"navigation__waves": "off"})))
     results: dict[int, list[tuple[int, str, float, float]]] = {}
     waves_off = None
