@@ -18,6 +18,8 @@ import numpy as np
 from auvdock.controllers.base import ControlOutput, Estimate, Plan
 from auvdock.controllers.mpc import DockingMPC
 from auvdock.controllers.settings import MPCSettings
+from auvdock.controllers.world import ControllerWorld
+from auvdock.estimation.water_ahead import WaterAhead
 from auvdock.vehicle import Vehicle
 from auvdock.world.dock import DockMotion
 
@@ -92,12 +94,20 @@ class BaselineMPC:
     extra_series: dict[str, tuple[int, ...]] = {}
 
     def __init__(
-        self, settings: MPCSettings, vehicle: Vehicle, dock: DockMotion, solver: str
+        self,
+        settings: MPCSettings,
+        vehicle: Vehicle,
+        dock: DockMotion,
+        solver: str,
+        world: ControllerWorld | None = None,
     ) -> None:
         if settings.type not in self._PREDICTION:
             raise ValueError(f"not a baseline controller: {settings.type!r}")
         self.name = settings.type
-        self.mpc = build_mpc(settings, vehicle, dock, self._PREDICTION[self.name], solver)
+        world = world or ControllerWorld()
+        # the true sea ahead: Oracle's (the full model); Kinematic's prediction holds its flow
+        self.sea = world.sea if self._PREDICTION[self.name] == "full" and self.needs_true_flow else None
+        self.mpc = build_mpc(settings, vehicle, dock, self._PREDICTION[self.name], solver, entry=world.entry)
 
     @property
     def needs_true_flow(self) -> bool:
@@ -110,5 +120,13 @@ class BaselineMPC:
     def step(self, est: Estimate, u_prev: np.ndarray) -> ControlOutput:
         if self.needs_true_flow and est.flow_ned is None:
             raise ValueError(f"{self.name} MPC needs the true flow at the vehicle (Assumption 3)")
-        r = self.mpc.solve(est.t, est.state, u_prev, None if self.name == "naive" else est.flow_ned)
+        water = None
+        if self.sea is not None and est.flow_ned is not None:
+            # told the true sea: the true current held plus the sea's water ahead at the vehicle
+            p = np.asarray(est.state[0:3], dtype=float)
+            current = np.asarray(est.flow_ned, dtype=float) - self.sea.kinematics_at(p, est.t)[0]
+            water = WaterAhead.from_sea(current, self.sea, p, est.t, self.mpc.dt, self.mpc.N)
+        r = self.mpc.solve(
+            est.t, est.state, u_prev, None if self.name == "naive" else est.flow_ned, water=water
+        )
         return ControlOutput(r.thrust, r.status, r.solve_time_s, Plan(r.plan_state, r.plan_thrust))

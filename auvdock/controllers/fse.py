@@ -59,6 +59,7 @@ from auvdock.controllers.base import ControlOutput, Estimate, Plan
 from auvdock.controllers.baseline import build_mpc
 from auvdock.controllers.rti import QRQP_OPTIONS
 from auvdock.controllers.settings import MPCSettings
+from auvdock.controllers.world import ControllerWorld
 from auvdock.estimation.flow_filter import (
     EstimatorSettings,
     FlowEstimator,
@@ -273,6 +274,7 @@ class FSEMPC:
         solver: str,
         estimator: EstimatorSettings,
         sensors: SensorSettings,
+        world: ControllerWorld | None = None,
     ) -> None:
         if settings.type not in ("sequential", "optimized", "ce"):
             raise ValueError(f"not a flow-estimating controller: {settings.type!r}")
@@ -303,9 +305,10 @@ class FSEMPC:
         R_inv = np.diag(1.0 / np.array([e.accel_noise_var] * 3 + [e.depth_rate_noise_var]))
         gamma = e.forgetting_factor
         self.law: PerceptionLaw | None = None
+        entry = None if world is None else world.entry
         self.explores = not isinstance(settings, CertaintyEquivalentSettings)
         if isinstance(settings, CertaintyEquivalentSettings):  # no information term, no law
-            self.mpc = build_mpc(settings, vehicle, dock, "full", solver, state_from_flow=True)
+            self.mpc = build_mpc(settings, vehicle, dock, "full", solver, state_from_flow=True, entry=entry)
         elif isinstance(settings, SequentialSettings):
             self.law = PerceptionLaw(
                 vehicle,
@@ -315,7 +318,7 @@ class FSEMPC:
                 gamma,
                 settings.perception_solver,
             )
-            self.mpc = build_mpc(settings, vehicle, dock, "full", solver, state_from_flow=True)
+            self.mpc = build_mpc(settings, vehicle, dock, "full", solver, state_from_flow=True, entry=entry)
         else:
             alpha = float(settings.alpha)
 
@@ -340,6 +343,7 @@ class FSEMPC:
                 extra_params=11,
                 extra_hessian=solver == "ipopt",
                 state_from_flow=True,
+                entry=entry,
             )
 
     def _info_weight(self, P: np.ndarray, meas: Estimate) -> float:
@@ -374,7 +378,8 @@ class FSEMPC:
             est = self.estimator.step(eta, nu_r, s.accel_m_s2, float(s.depth_rate_m_s), u_prev)
         tau = np.zeros(6)
         t0 = time.perf_counter()
-        water = meas.water_for_prediction(est.flow_ned)  # the slow current, plus the waves' velocity
+        # the slow current held, plus the waves' velocity run forward on the filter's wave model
+        water = meas.water_ahead(est.flow_ned, self.mpc.dt, self.mpc.N)
         # the estimator's state is [eta; nu_r + f; nu_2] (ETA, LIN, ANG)
         if self.law is not None:
             with timing.part("perception"):
@@ -386,16 +391,16 @@ class FSEMPC:
             # MPC's disturbance observer predicts with the thrust really applied, this input included
             w = self._info_weight(est.covariance, meas)
             tau, u_off = w * tau, w * u_off
-            r = self.mpc.solve(meas.t, est.state, u_prev, water)
+            r = self.mpc.solve(meas.t, est.state, u_prev, water=water)
             r.thrust = np.clip(r.thrust + u_off, self.vehicle.thrust_min, self.vehicle.thrust_max)
         elif not self.explores:
-            r = self.mpc.solve(meas.t, est.state, u_prev, water)
+            r = self.mpc.solve(meas.t, est.state, u_prev, water=water)
         else:
             G = self.estimator.gramian()
             depth_row = self.estimator.R(est.state[ATT])[2, :]
             weight = self._info_weight(est.covariance, meas)
             extra = np.concatenate([_six(G), [float(information_lower_bound(G))], depth_row, [weight]])
-            r = self.mpc.solve(meas.t, est.state, u_prev, water, extra=extra)
+            r = self.mpc.solve(meas.t, est.state, u_prev, extra=extra, water=water)
         series = {
             "flow_estimate_m_s": est.flow_body,
             "flow_covariance": est.covariance,

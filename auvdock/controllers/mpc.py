@@ -38,8 +38,16 @@ Prediction models (``prediction``), all from :class:`auvdock.vehicle.model.Vehic
 * ``"naive"`` -- eqs. (1)-(2) with no current (nu_c = 0);
 * ``"kinematic"`` -- state [eta; nu_r], current only in the kinematics
   (eta_dot = J(nu_r + nu_c)), dynamics eq. (6) with no flow terms;
-* ``"full"`` -- eqs. (1)-(2) with the flow given each solve (the true flow: Oracle MPC;
-  the estimated flow: the FSE-MPCs), held constant in {n} over the horizon.
+* ``"full"`` -- eqs. (1)-(2) with the water given each solve for every step of the horizon
+  (:class:`auvdock.estimation.water_ahead.WaterAhead`: its velocity and acceleration, the latter
+  also the Froude-Krylov force's): the true flow held (Oracle MPC, the paper) or the true sea ahead
+  (Oracle in a sea); the estimated current held plus the estimated waves run forward (the FSE-MPCs
+  with a wave filter).  Without a profile the flow is held constant in {n} (the paper's formulation).
+
+With an entry corridor (``entry``, :mod:`auvdock.controllers.entry`) each predicted state
+k = 1..N adds the corridor's three soft-constraint residuals (the funnel's cone, the closing
+speed, the heading) to the cost, about the docking point: the target's position plus its
+``standoff_m`` along the dock's heading.
 
 The problem is built ONCE; everything that changes between solves (state, last input,
 dock trajectory, heading reference, flow, input offset) is a parameter packed in one
@@ -61,8 +69,10 @@ from typing import Literal
 import casadi as ca
 import numpy as np
 
+from auvdock.controllers.entry import EntryCorridor, entry_residuals
 from auvdock.controllers.solvers import SOLVERS, Problem, SolveResult
 from auvdock.controllers.status import STATUS_FAILED, STATUS_FALLBACK_ZERO, STATUS_NOT_CONVERGED, STATUS_OK
+from auvdock.estimation.water_ahead import WaterAhead
 from auvdock.runtime.codegen import compiled_function
 from auvdock.runtime.fastcall import BufferedFunction
 from auvdock.runtime.interrupts import SigintDeferred
@@ -173,6 +183,9 @@ class DockingMPC:
         disturbance update then predicts from the previous state re-expressed with it.
     qp : {"hpipm", "qrqp"}
         QP solver of ``sqp`` and ``rti`` (:data:`auvdock.controllers.rti.QP_SOLVERS`).
+    entry : EntryCorridor, optional
+        The dock's entry corridor in the cost (:mod:`auvdock.controllers.entry`); None: none
+        (the paper's cost).
 
     Attributes
     ----------
@@ -207,6 +220,7 @@ class DockingMPC:
         disturbance_time_constant_s: float = 1.0,
         state_from_flow: bool = False,
         qp: str = "hpipm",
+        entry: EntryCorridor | None = None,
     ) -> None:
         if prediction not in ("naive", "kinematic", "full"):
             raise ValueError(f"unknown prediction model {prediction!r}")
@@ -242,6 +256,7 @@ class DockingMPC:
         self.dist_gain = min(1.0, self.dt / float(disturbance_time_constant_s))
         B = np.asarray(vehicle.allocation, dtype=float)
         self.dist_max = np.abs(B) @ np.maximum(np.abs(vehicle.thrust_min), np.abs(vehicle.thrust_max))
+        self.entry = entry
         self._build(objective_extra, solver, max_iter, tol, hessian, qp)
         self.reset()
 
@@ -261,12 +276,19 @@ class DockingMPC:
         u_off = ca.SX.sym("u_off", nu)
         extra = ca.SX.sym("extra", self.n_extra)
         dist = ca.SX.sym("disturbance", 6)
-        params = ca.vertcat(x0, u_prev, ca.vec(dock_p), ca.vec(dock_v), psi_ref, flow, u_off, extra, dist)
+        water_v = ca.SX.sym("water_v", 3, N)  # the water over the horizon (full prediction)
+        water_a = ca.SX.sym("water_a", 3, N)
+        entry_p = ca.SX.sym("entry", 3)  # [dock heading (rad, near the vehicle's), standoff (m), active]
+        params = ca.vertcat(
+            x0, u_prev, ca.vec(dock_p), ca.vec(dock_v), psi_ref, flow, u_off, extra, dist,
+            ca.vec(water_v), ca.vec(water_a), entry_p,
+        )  # fmt: skip
         self._n_params = params.shape[0]
 
         # one-step prediction, with the lumped disturbance [R^T f_n; m_b] (zero: the paper's model)
         xs = ca.SX.sym("xs", nx)
         us = ca.SX.sym("us", nu)
+        acc = ca.SX.sym("water_accel", 3)
         zero = ca.DM.zeros(3)
 
         def tau_d(x: ca.SX) -> ca.SX:
@@ -276,9 +298,9 @@ class DockingMPC:
             f_pred = lambda x, u: model.dynamics(x, u, zero, zero, tau_d(x))  # noqa: E731
         elif self.prediction == "kinematic":
             f_pred = lambda x, u: model.relative_dynamics(x, u, flow, tau_d(x))  # noqa: E731
-        else:
-            f_pred = lambda x, u: model.dynamics(x, u, flow, zero, tau_d(x))  # noqa: E731
-        step = ca.Function("mpc_model_step", [xs, us, flow, dist], [rk4(f_pred, xs, dt, 1, us)])
+        else:  # the water's acceleration: its rate along the path and the Froude-Krylov force's
+            f_pred = lambda x, u: model.dynamics(x, u, flow, acc, tau_d(x), acc)  # noqa: E731
+        step = ca.Function("mpc_model_step", [xs, us, flow, acc, dist], [rk4(f_pred, xs, dt, 1, us)])
         # the offset-free observer's one-step prediction, evaluated every control step: compiled
         self._step_fn = BufferedFunction(compiled_function(step)[0])
 
@@ -316,10 +338,27 @@ class DockingMPC:
                 wts.append(self.Q)
             res.append(U[:, k] - V[:, k])
             wts.append(self.R)
-            g.append(step(X[:, k], U[:, k] + u_off, flow, dist) - X[:, k + 1])
+            if self.prediction == "full":
+                g.append(step(X[:, k], U[:, k] + u_off, water_v[:, k], water_a[:, k], dist) - X[:, k + 1])
+            else:
+                g.append(step(X[:, k], U[:, k] + u_off, flow, zero, dist) - X[:, k + 1])
             g.append(U[:, k] - V[:, k + 1])
         res.append(error(N))
         wts.append(self.P)
+        if self.entry is not None:
+            heading, standoff, active = entry_p[0], entry_p[1], entry_p[2]
+            axis = ca.vertcat(ca.cos(heading), ca.sin(heading), 0)
+            w_entry = np.asarray(self.entry.weights, dtype=float)
+            for k in range(1, N + 1):
+                xk = X[:, k]
+                v_ned = ca.mtimes(model.rotation(xk[ETA]), over_ground(xk)[0:3])
+                res.append(
+                    entry_residuals(
+                        self.entry, xk[POS], v_ned, xk[YAW], dock_p[:, k] + standoff * axis, dock_v[:, k],
+                        heading, active,
+                    )
+                )  # fmt: skip
+                wts.append(w_entry)
         r = ca.vertcat(*res)
         W = ca.DM(np.concatenate(wts))
         J = ca.dot(W * r, r)
@@ -368,24 +407,27 @@ class DockingMPC:
         self._plan_age = 0
         self.disturbance = np.zeros(6)
         self.velocity_offset = np.zeros(3)
-        self._obs_prev: tuple[np.ndarray, np.ndarray] | None = None
+        self._obs_prev: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 
-    def _observe(self, xm: np.ndarray, u_applied: np.ndarray, flow: np.ndarray, R: np.ndarray) -> np.ndarray:
+    def _observe(
+        self, xm: np.ndarray, u_applied: np.ndarray, flow: np.ndarray, accel: np.ndarray, R: np.ndarray
+    ) -> np.ndarray:
         """Update the disturbances from the last step's prediction error (module docstring);
-        returns the state corrected by the velocity offset.  ``R`` is R(Theta) at ``xm``."""
+        returns the state corrected by the velocity offset.  ``R`` is R(Theta) at ``xm``; ``flow``
+        and ``accel`` the water's velocity and acceleration now (3, each; NED)."""
         if not np.all(np.isfinite(xm)):
             self._obs_prev = None
             return xm
         prev = self._obs_prev
         if prev is not None:
-            xm_prev, flow_prev = prev
+            xm_prev, flow_prev, accel_prev = prev
             if self.state_from_flow:
                 # a new flow estimate moves the over-ground velocity an FSE controller is given
                 # (nu_r + R^T v_c) without any force: predict from the state as it is now understood
                 xm_prev = xm_prev.copy()
                 xm_prev[LIN] += self._R(xm_prev[ATT]).T @ (flow - flow_prev)
                 flow_prev = flow
-            pred = self._step_fn(xm_prev, u_applied, flow_prev, self.disturbance)[0].copy()
+            pred = self._step_fn(xm_prev, u_applied, flow_prev, accel_prev, self.disturbance)[0].copy()
             e_p = xm[POS] - pred[POS]  # {n}: a velocity the state does not show
             v = self.velocity_offset + self.dist_gain * e_p / self.dt
             if np.all(np.isfinite(v)):
@@ -398,7 +440,7 @@ class DockingMPC:
             if np.all(np.isfinite(delta_n)):
                 d = self.disturbance + self.dist_gain * delta_n
                 self.disturbance = np.clip(d, -self.dist_max, self.dist_max)
-        self._obs_prev = (xc.copy(), flow.copy())
+        self._obs_prev = (xc.copy(), flow.copy(), accel.copy())
         return xc
 
     def _to_model_state(self, x: np.ndarray, flow_ned: np.ndarray, R: np.ndarray) -> np.ndarray:
@@ -442,6 +484,7 @@ class DockingMPC:
         flow_ned: np.ndarray | None = None,
         u_offset: np.ndarray | None = None,
         extra: np.ndarray | None = None,
+        water: WaterAhead | None = None,
     ) -> MPCResult:
         """Solve once at time ``t`` (s) from state ``x`` (12, over-ground velocities).
 
@@ -456,21 +499,38 @@ class DockingMPC:
             Fixed input added to every planned input (N).
         extra : ndarray, optional
             Extra parameters of ``objective_extra``.
+        water : WaterAhead, optional
+            The water over the horizon (``"full"`` prediction; N steps); ``flow_ned`` is then its first
+            velocity.  Default: ``flow_ned`` held, no acceleration.
         """
         x = np.asarray(x, dtype=float)
+        if water is not None:
+            if water.steps != self.N:
+                raise ValueError(f"water: {water.steps} steps for a horizon of {self.N}")
+            flow_ned = water.velocity_ned[0]
         flow = np.zeros(3) if flow_ned is None else np.asarray(flow_ned, dtype=float)
+        if water is None:
+            water = WaterAhead.held(flow, self.N)
         u_off = np.zeros(self.nu) if u_offset is None else np.asarray(u_offset, dtype=float)
         ex = np.zeros(self.n_extra) if extra is None else np.asarray(extra, dtype=float)
         R = self._R(x[ATT])  # the model states below share x's attitude
         xm = self._to_model_state(x, flow, R)
+        accel = water.accel_ned[0] if self.prediction == "full" else np.zeros(3)
         if self.offset_free:
-            xm = self._observe(xm, np.asarray(u_prev, dtype=float), flow, R)
+            xm = self._observe(xm, np.asarray(u_prev, dtype=float), flow, accel, R)
         _, dp, dv = self.dock.trajectory(t, self.dt, self.N)
         psi_d = self.dock.heading_rad
         psi_ref = psi_d + 2 * math.pi * round((x[YAW] - psi_d) / (2 * math.pi))
+        # the dock's entry: its heading (within pi of the vehicle's), where the target stands off it
+        psi_e = float(getattr(self.dock, "entry_heading_rad", psi_d))
+        psi_e += 2 * math.pi * round((x[YAW] - psi_e) / (2 * math.pi))
+        entry = [psi_e, float(getattr(self.dock, "standoff_m", 0.0)), 1.0 if self.entry is not None else 0.0]
         p = np.concatenate(
-            [xm, u_prev - u_off, dp.ravel(), dv.ravel(), [psi_ref], flow, u_off, ex, self.disturbance]
-        )
+            [
+                xm, u_prev - u_off, dp.ravel(), dv.ravel(), [psi_ref], flow, u_off, ex, self.disturbance,
+                np.ravel(water.velocity_ned), np.ravel(water.accel_ned), entry,
+            ]
+        )  # fmt: skip
         u_prev_m = np.clip(u_prev - u_off, self.u_min - u_off, self.u_max - u_off)
         lbx, ubx = self._bounds(xm, u_prev_m, flow, u_off, R)
 

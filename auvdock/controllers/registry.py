@@ -34,6 +34,7 @@ from auvdock.controllers.baseline import BaselineMPC, KinematicSettings, NaiveSe
 from auvdock.controllers.fse import FSEMPC, CertaintyEquivalentSettings, OptimizedSettings, SequentialSettings
 from auvdock.controllers.settings import MPCSettings
 from auvdock.controllers.solvers import SOLVERS
+from auvdock.controllers.world import ControllerWorld
 from auvdock.estimation.flow_filter import EstimatorSettings
 from auvdock.sensing.settings import SensorSettings
 from auvdock.vehicle import Vehicle
@@ -66,7 +67,7 @@ class ControllerEntry:
     settings : type
         Its settings class (a pydantic model with ``type: Literal[name]``).
     build : callable
-        ``build(settings, vehicle, dock, solver, estimator, sensors) -> Controller``.
+        ``build(settings, vehicle, dock, solver, estimator, sensors, world) -> Controller``.
     auto_solver : str
         What solver ``auto`` means for it (docs/performance.md: how it was chosen).
     auto_solver_paper : str, optional
@@ -105,12 +106,12 @@ class ControllerEntry:
     in_paper: bool = True
 
 
-def _baseline(settings, vehicle, dock, solver, estimator, sensors) -> Controller:
-    return BaselineMPC(settings, vehicle, dock, solver)
+def _baseline(settings, vehicle, dock, solver, estimator, sensors, world) -> Controller:
+    return BaselineMPC(settings, vehicle, dock, solver, world)
 
 
-def _fse(settings, vehicle, dock, solver, estimator, sensors) -> Controller:
-    return FSEMPC(settings, vehicle, dock, solver, estimator, sensors)
+def _fse(settings, vehicle, dock, solver, estimator, sensors, world) -> Controller:
+    return FSEMPC(settings, vehicle, dock, solver, estimator, sensors, world)
 
 
 #: Every controller, in the paper's order: the one place to register a new one.  The order is the
@@ -246,6 +247,7 @@ def build_controller(
     dock: DockMotion,
     estimator: EstimatorSettings | None = None,
     sensors: SensorSettings | None = None,
+    world: ControllerWorld | None = None,
 ) -> Controller:
     """The controller ``settings.type`` describes, built once for a run.
 
@@ -258,11 +260,14 @@ def build_controller(
     estimator, sensors : EstimatorSettings, SensorSettings, optional
         The flow estimator's settings and the sensor noise it accounts for (FSE-MPCs);
         defaults when omitted.
+    world : ControllerWorld, optional
+        What it knows of the dock's body and (Oracle) the true sea; default: neither.
     """
     entry = CONTROLLERS.get(settings.type)
     if entry is None:
         raise ValueError(f"unknown controller {settings.type!r} (known: {', '.join(CONTROLLERS)})")
     solver = resolve_solver(settings.solver.name, entry.name, settings.variant)
     return entry.build(
-        settings, vehicle, dock, solver, estimator or EstimatorSettings(), sensors or SensorSettings()
+        settings, vehicle, dock, solver, estimator or EstimatorSettings(), sensors or SensorSettings(),
+        world or ControllerWorld(),
     )

@@ -13,6 +13,7 @@ from typing import Annotated, Any, Literal
 from pydantic import Field, field_validator
 
 from auvdock.config.schema import NonNegFloat, PosFloat, Strict, Vec3Pos, Vec12NonNeg
+from auvdock.controllers.entry import EntrySpec
 
 __all__ = ["WeightsSpec", "BoundsSpec", "SolverSpec", "MPCSettings", "DEFAULT_Q"]
 
@@ -116,3 +117,11 @@ class MPCSettings(Strict):
     weights: WeightsSpec = Field(default_factory=WeightsSpec)
     bounds: BoundsSpec = Field(default_factory=BoundsSpec)
     solver: SolverSpec = Field(default_factory=SolverSpec)
+    entry: EntrySpec = Field(default_factory=EntrySpec)
+
+    def entry_enabled(self, docks_on_contact: bool) -> bool:
+        """Whether the MPC's cost holds the dock's entry corridor (``entry.enabled``; by default the
+        robust variant's in a mission that docks on contact, never the paper's formulation)."""
+        if self.entry.enabled is not None:
+            return bool(self.entry.enabled)
+        return docks_on_contact and self.variant == "robust"

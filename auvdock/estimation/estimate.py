@@ -4,10 +4,15 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from auvdock.estimation.water_ahead import WaterAhead
 from auvdock.sensing.readings import FlowSensing
+
+if TYPE_CHECKING:
+    from auvdock.estimation.navigation_filter import WaveModel
 
 __all__ = ["Estimate"]
 
@@ -53,7 +58,11 @@ class Estimate:
         The water's wave-frequency velocity at the vehicle in {n}, m/s: the navigation filter's
         estimate with a wave model (``navigation.waves``), else None.  The current (``current_ned``,
         and what a flow filter estimates) is the slow part of the water; the controllers' prediction
-        adds this to it (held over the horizon, as Oracle's true flow is).
+        adds this to it, run forward over the horizon on the wave model (:meth:`water_ahead`).
+    wave_accel_ned : ndarray (3,) or None
+        Its rate of change, m/s^2 (the filter's second oscillator state), with a wave model.
+    wave_model : WaveModel or None
+        The filter's wave oscillators (frequency, damping), with a wave model.
     """
 
     t: float
@@ -67,12 +76,18 @@ class Estimate:
     dock_fix_t: float | None = None
     current_uncertainty: float | None = None
     wave_velocity_ned: np.ndarray | None = None
+    wave_accel_ned: np.ndarray | None = None
+    wave_model: WaveModel | None = None
 
-    def water_for_prediction(self, current_ned: np.ndarray) -> np.ndarray:
-        """The water velocity (3,, {n}, m/s) a controller's prediction holds over its horizon: its
-        ``current_ned`` (3,) estimate plus the wave-frequency velocity where the stage estimates it."""
-        c = np.asarray(current_ned, dtype=float)
-        return c if self.wave_velocity_ned is None else c + np.asarray(self.wave_velocity_ned, dtype=float)
+    def water_ahead(self, current_ned: np.ndarray, dt: float, steps: int) -> WaterAhead:
+        """The water a controller's prediction meets over ``steps`` steps of ``dt`` s: its
+        ``current_ned`` (3,) estimate held, plus the wave-frequency velocity run forward on the wave
+        model where the stage estimates it (:meth:`WaterAhead.from_waves`); else the current held."""
+        if self.wave_velocity_ned is None or self.wave_accel_ned is None or self.wave_model is None:
+            return WaterAhead.held(current_ned, steps)
+        return WaterAhead.from_waves(
+            current_ned, self.wave_velocity_ned, self.wave_accel_ned, self.wave_model, dt, steps
+        )
 
     def without_flow(self) -> Estimate:
         """The same estimate with ``flow_ned`` removed (for controllers that may not read it)."""

@@ -264,8 +264,8 @@ class NavEstimate:
     ``n_meas`` degrees of freedom for a consistent filter); ``dock_anchor_ned`` (3,) the dock's
     anchor (NED, m) and ``dock_cov`` (3, 3); ``relative_cov`` (3, 3) the covariance of the
     vehicle's position relative to the dock (m^2), what the camera's fixes shrink;
-    ``wave_velocity_ned`` (3,) the water's wave-frequency velocity at the vehicle (NED, m/s) and
-    ``wave_cov`` (3, 3), with a wave model (else None).
+    ``wave_velocity_ned`` (3,) the water's wave-frequency velocity at the vehicle (NED, m/s), its
+    rate ``wave_accel_ned`` (3,, m/s^2) and ``wave_cov`` (3, 3), with a wave model (else None).
     """
 
     t: float
@@ -279,6 +279,7 @@ class NavEstimate:
     dock_cov: np.ndarray | None = None
     relative_cov: np.ndarray | None = None
     wave_velocity_ned: np.ndarray | None = None
+    wave_accel_ned: np.ndarray | None = None
     wave_cov: np.ndarray | None = None
 
 
@@ -314,6 +315,25 @@ class WaveModel:
             raise ValueError(f"WaveModel: damping_ratio must be in (0, 1), got {self.damping_ratio}")
         if len(self.velocity_std_m_s) != 3 or min(self.velocity_std_m_s) < 0:
             raise ValueError("WaveModel: velocity_std_m_s must be 3 values >= 0")
+
+    def propagate(
+        self, velocity: np.ndarray, accel: np.ndarray, tau_s: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The oscillators' expected motion ``tau_s`` (m,) seconds ahead from velocity ``velocity`` (3,)
+        and its rate ``accel`` (3,) now: the free response of ``w'' + 2 zeta omega w' + omega^2 w = 0``
+        (the driving noise has zero mean), ``w(tau) = exp(-zeta omega tau) [w0 cos(omega_d tau) +
+        (a0 + zeta omega w0) / omega_d sin(omega_d tau)]``, ``omega_d = omega sqrt(1 - zeta^2)``, and
+        its derivative.  Returns (velocity (m, 3) m/s, acceleration (m, 3) m/s^2), NED."""
+        w0 = np.asarray(velocity, dtype=float)
+        a0 = np.asarray(accel, dtype=float)
+        tau = np.asarray(tau_s, dtype=float)[:, None]
+        w, zeta = self.omega_rad_s, self.damping_ratio
+        wd = w * math.sqrt(1.0 - zeta * zeta)
+        decay = np.exp(-zeta * w * tau)
+        c, s = np.cos(wd * tau), np.sin(wd * tau)
+        vel = decay * (w0 * c + (a0 + zeta * w * w0) / wd * s)
+        acc = decay * (a0 * c - (w * w * w0 + zeta * w * a0) / wd * s)
+        return vel, acc
 
     def accel_density(self) -> np.ndarray:
         """Density (3,) of the white noise driving each axis's rate, m/s^2/sqrt(s)."""
@@ -624,6 +644,7 @@ class NavigationFilter:
             dock_cov=Pdd.copy(),
             relative_cov=Ppp + Pdd - Ppd - Ppd.T,
             wave_velocity_ned=None if self.waves is None else self.z[WAVE_VELOCITY].copy(),
+            wave_accel_ned=None if self.waves is None else self.z[WAVE_ACCEL].copy(),
             wave_cov=None if self.waves is None else self.P[WAVE_VELOCITY, WAVE_VELOCITY].copy(),
         )
 

@@ -301,6 +301,8 @@ class NavigationStage:
             dock_fix_t=self.dock_fix_t,
             current_uncertainty=share,
             wave_velocity_ned=None if est.wave_velocity_ned is None else est.wave_velocity_ned.copy(),
+            wave_accel_ned=None if est.wave_accel_ned is None else est.wave_accel_ned.copy(),
+            wave_model=self.filter.waves,
         )
         dock_now = (np.zeros(3) if self.dock is None else np.asarray(self.dock.position(readings.t))) + offset
         series = {

@@ -17,9 +17,11 @@ import numpy as np
 
 from auvdock.config.mission import Mission
 from auvdock.controllers import Controller, ControlOutput, build_controller, resolve_solver
+from auvdock.controllers.entry import EntryCorridor
 from auvdock.controllers.registry import CONTROLLERS
 from auvdock.controllers.settings import MPCSettings
 from auvdock.controllers.status import STATUS_LOST_TARGET, STATUS_SETTLING
+from auvdock.controllers.world import ControllerWorld
 from auvdock.estimation.dock_knowledge import TelemetryDock
 from auvdock.estimation.flow_filter import EstimatorSettings
 from auvdock.estimation.stage import EstimationStage, TruthStage, build_estimation
@@ -54,6 +56,9 @@ class Autopilot:
         What the controllers steer to (:mod:`auvdock.loop.guidance`: the dock where the estimate
         places it; with a dock camera, the approach and the lost-target policy); default: the
         dock, always.
+    world : ControllerWorld, optional
+        What the controller is told beyond its estimate: the dock's entry corridor, the true sea
+        (Oracle); default: neither.
 
     Attributes
     ----------
@@ -71,6 +76,7 @@ class Autopilot:
         sensors: SensorSettings | None = None,
         estimation: EstimationStage | None = None,
         guidance: Guidance | None = None,
+        world: ControllerWorld | None = None,
     ) -> None:
         t0 = time.perf_counter()
         self.estimation: EstimationStage = TruthStage() if estimation is None else estimation
@@ -81,8 +87,9 @@ class Autopilot:
         # built whole: CasADi's argument checks clear a KeyboardInterrupt raised inside them
         with SigintDeferred():
             self.controller: Controller = build_controller(
-                settings, vehicle, self.guidance.target, estimator, sensors
+                settings, vehicle, self.guidance.target, estimator, sensors, world
             )
+        self.world = world or ControllerWorld()
         self.name = self.controller.name
         self.dt = settings.dt_s
         self.solver = resolve_solver(settings.solver.name, self.name, settings.variant)
@@ -96,7 +103,7 @@ class Autopilot:
         """Extra per-step series this autopilot records (name -> per-row shape)."""
         series = dict(getattr(self.controller, "extra_series", {}))
         series.update(self.estimation.series_shapes)
-        if self.guidance.camera:
+        if self.guidance.records:
             series.update(GUIDANCE_SERIES)
         return series
 
@@ -132,7 +139,7 @@ class Autopilot:
             with timing.part("estimation"):
                 est, recorded = self.estimation.step(readings, self.u_applied)
         steering = self.guidance.update(est)
-        if self.guidance.camera:
+        if self.guidance.records:
             recorded = {**recorded, **steering}
         lost = self.guidance.phase == "given_up"
         if lost or self.estimation.settling(readings.t):  # no control on a filter that has not settled
@@ -172,6 +179,7 @@ def build_autopilot(
     if knows_dock_from_telemetry(m, m.controller.type):
         telemetry = TelemetryDock(dock)  # the chart's anchor, the motion forecast from the telemetry
         known = telemetry
+    world = controller_world(m, dock)
     return Autopilot(
         m.controller,
         vehicle,
@@ -179,8 +187,28 @@ def build_autopilot(
         m.estimator,
         m.sensors,
         build_estimation(m, vehicle, known, telemetry),
-        Guidance(m.guidance, known, camera),
+        Guidance(m.guidance, known, camera, entry=world.entry is not None),
+        world,
     )
+
+
+def controller_world(mission: Mission, dock: DockMotion) -> ControllerWorld:
+    """What the mission's controller is told beyond its estimate (:class:`ControllerWorld`): the dock's
+    entry corridor where :meth:`~auvdock.controllers.settings.MPCSettings.entry_enabled` (from the dock's
+    body, ``docking.criterion: capture``), and the realised sea for a controller that reads the truth
+    (Oracle).  ``dock``: the dock as built for the run (a WEC dock's buoy is part of its body)."""
+    settings = mission.controller
+    entry = None
+    contact = mission.build_contact(dock) if mission.docking.criterion == "capture" else None
+    if contact is not None and settings.entry_enabled(True):
+        body, hull, _ = contact
+        entry = EntryCorridor.for_dock(settings.entry, body, hull)
+    elif settings.entry.enabled and contact is None:
+        raise ValueError(
+            "controller.entry.enabled: the entry corridor needs the dock's body (docking.criterion: capture)"
+        )
+    sea = mission.build_sea() if CONTROLLERS[settings.type].reads_true_flow else None
+    return ControllerWorld(entry, sea)
 
 
 def knows_dock_from_telemetry(mission: Mission, controller: str) -> bool:

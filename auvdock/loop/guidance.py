@@ -39,7 +39,11 @@ reckoning, in a current, cost more than it found -- measured on paper cases 2 an
 returns to ``align`` or, in the entry tube, ``approach``.  Every loss (a fix older than ``coast_s``)
 is a :class:`LostTrack` event with how it ended: re-acquired (in which phase, after how long) or
 not at all (the run ended).  Without a dock camera the guidance steers to the dock all the
-time (the paper's Assumption 2, or absolute positioning).
+time (the paper's Assumption 2, or absolute positioning), except where the controller holds the
+dock's entry corridor (``entry``; :mod:`auvdock.controllers.entry`): then, until the vehicle is in
+the entry tube, it steers to the standoff point (``align``), and from there to the dock
+(``approach``, kept once begun) -- the way round the dock that a corridor over a short horizon
+cannot find from beside it.
 
 Frames: NED positions (m), headings clockwise from north (rad), times on the mission clock (s).
 """
@@ -140,6 +144,11 @@ class SteeringTarget(TranslatingDock):
         return float(self.dock.heading_rad) + self.yaw_offset_rad
 
     @property
+    def entry_heading_rad(self) -> float:
+        """The dock's heading (its entry's axis, without the guidance's yaw offset), rad."""
+        return float(self.dock.heading_rad)
+
+    @property
     def position_ned_m(self) -> tuple[float, float, float]:
         """The target's anchor: the dock's, moved as the target is (NED, m)."""
         n, e, d = np.asarray(self.dock.position_ned_m, dtype=float) + self._shift()
@@ -190,20 +199,31 @@ class Guidance:
         The dock as the mission charts it.
     camera : bool
         The vehicle finds the dock with its camera (``sensors.dock_camera`` with ``estimation:
-        filter``); False: steer to the dock all the time.
+        filter``); False: steer to the dock all the time (but see ``entry``).
+    entry : bool
+        Without a camera: approach through the standoff point on the dock's axis (the controller
+        holds the dock's entry corridor).
     """
 
-    def __init__(self, settings: GuidanceSettings, dock: DockMotion, camera: bool) -> None:
+    def __init__(
+        self, settings: GuidanceSettings, dock: DockMotion, camera: bool, entry: bool = False
+    ) -> None:
         self.settings = settings
         self.camera = bool(camera)
+        self.entry = bool(entry) and not self.camera
         self.target = SteeringTarget(dock)
         self.reset()
 
+    @property
+    def records(self) -> bool:
+        """Whether the guidance's phases are worth recording (a camera, or the way through the entry)."""
+        return self.camera or self.entry
+
     def reset(self) -> None:
         """Start a new run: nothing seen yet."""
-        self.phase = "transit" if self.camera else "approach"
+        self.phase = "transit" if self.camera else "align" if self.entry else "approach"
         self.target.offset = np.zeros(3)
-        self.target.standoff_m = self.settings.standoff_m if self.camera else 0.0
+        self.target.standoff_m = self.settings.standoff_m if self.camera or self.entry else 0.0
         self.target.yaw_offset_rad = 0.0
         self.events: list[LostTrack] = []
         self._search_t0: float | None = None
@@ -241,7 +261,11 @@ class Guidance:
         if est.dock_offset_ned is not None:
             self.target.offset = np.asarray(est.dock_offset_ned, dtype=float).copy()
         if not self.camera:
-            return {"guidance_phase": np.asarray(0.0), "dock_fix_age_s": np.asarray(math.nan)}
+            if self.entry:  # through the standoff point into the entry tube, then the dock
+                phase = "approach" if self.phase == "approach" or self._in_entry(est) else "align"
+                self._set(phase, t, est)
+            code = float(GUIDANCE_PHASES.index(self.phase))
+            return {"guidance_phase": np.asarray(code), "dock_fix_age_s": np.asarray(math.nan)}
         s = self.settings
         fix = est.dock_fix_t
         age = math.inf if fix is None else t - fix
