@@ -49,6 +49,18 @@ def _case_info(mission) -> tuple[str, int]:
     from auvdock.world.flow import FLOW_CASE_ALIASES, FLOW_CASES
 
     desc = mission.build_flow().describe()
+    w = mission.sea.waves
+    if w is not None or mission.docking.criterion == "capture":
+        # in a sea, or docking on contact: not the paper's study, whatever its current
+        if w is None:
+            sea = "no waves"
+        elif w.type == "regular":
+            sea = f"regular waves H {w.height_m:g} m, T {w.period_s:.2f} s"
+        elif w.type == "jonswap":
+            sea = f"JONSWAP Hs {w.hs_m:g} m, Tp {w.tp_s:g} s"
+        else:
+            sea = f"waves from {w.file}"
+        return f"{mission.name}: {desc}; {sea}", 0
     case = mission.flow.case
     if case is not None:
         key = FLOW_CASE_ALIASES.get(case, case)

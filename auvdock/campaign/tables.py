@@ -11,6 +11,7 @@ from typing import Any
 
 from auvdock.campaign.compare import TABLE_COLUMNS
 from auvdock.campaign.findings import check_findings, coverage_note
+from auvdock.campaign.sea_findings import sea_findings
 
 __all__ = ["SUMMARY_HEADER", "FINDINGS_HEADER", "summary_rows", "markdown_table", "write_tables"]
 
@@ -48,8 +49,10 @@ def summary_rows(records: Sequence[dict[str, Any]]) -> list[list[str]]:
             docked, ttd = "failed", f"failed: {r['error']}"
         elif r["docked"]:
             docked, ttd = "yes", _fmt(r["time_to_dock_s"], ".2f", " s")
-        else:
+        elif r.get("reason") in ("", "timeout", None):
             docked, ttd = "no", f"timeout {r['timeout_s']:.0f} s"
+        else:  # collided, gave up finding the dock, diverged
+            docked, ttd = "no", f"{r['reason']} at {r['end_time_s']:.1f} s"
         rows.append(
             [
                 r["case"],
@@ -113,5 +116,6 @@ def write_tables(records: Sequence[dict[str, Any]], out_dir: str | Path, attrs: 
         "Every explanation is computed from this campaign's table.\n\n"
         + (f"{note}\n\n" if (note := coverage_note(records)) else "")
         + markdown_table(FINDINGS_HEADER, rows)
+        + (f"\n{sea}" if (sea := sea_findings(records)) else "")
     )
     return [csv_path, md_path, fd_path]

@@ -158,6 +158,12 @@ def compare(
     force: bool = typer.Option(False, "--force", help="Replace the campaign in --out: start again."),
     pdf: bool = typer.Option(False, "--pdf", help="Also write the figures as PDF."),
     no_plots: bool = typer.Option(False, "--no-plots", help="Skip the figures."),
+    sea: bool = typer.Option(
+        False,
+        "--sea",
+        help="Add the cases in a sea after the others: the wave basin (basin_regular) and PacWave's most "
+        "common sea (pacwave_common_10m); findings.md then says how each run there ended.",
+    ),
 ) -> None:
     """Run the paper's six-case study (cases x controllers) in parallel, with tables and figures."""
     from auvdock.campaign import (
@@ -170,11 +176,13 @@ def compare(
     )
     from auvdock.campaign.display import CampaignProgress
     from auvdock.campaign.store import check_output, check_resume
-    from auvdock.config.catalog import resolve
+    from auvdock.config.catalog import SEA_MISSIONS, resolve
 
     ctrls = controller_list(controllers, variants=True)
     given = list(missions or [])
     paths = [resolve(m) for m in given] or default_missions()
+    if sea:
+        paths += [resolve(m) for m in SEA_MISSIONS if resolve(m) not in paths]
     for m in paths:
         if not m.is_file():
             fail_input(f"{m}: file not found")
@@ -202,7 +210,9 @@ def compare(
     for flag, value in (("--seed", seed), ("--timeout", timeout), ("--estimation", estimation)):
         if value is not None:
             words += [flag, str(value)]
-    flags = (("--resume", resume), ("--force", force), ("--pdf", pdf), ("--no-plots", no_plots))
+    flags = (
+        ("--resume", resume), ("--force", force), ("--pdf", pdf), ("--no-plots", no_plots), ("--sea", sea),
+    )  # fmt: skip
     words += [w for w, on in flags if on]
     cmd = shlex.join(words)
     n_cases = len(specs) // max(1, len(ctrls))

@@ -14,6 +14,7 @@ from pathlib import Path
 
 __all__ = [
     "PAPER_MISSIONS",
+    "SEA_MISSIONS",
     "ShippedFile",
     "missions_dir",
     "shipped_missions",
@@ -24,6 +25,8 @@ __all__ = [
 
 #: The paper's six cases (section VII), as shipped mission names, in case order.
 PAPER_MISSIONS = ("still", "diagonal", "south", "east_strong", "gyre", "gyre_fast")
+#: The cases in a sea that ``compare --sea`` adds beside them: the wave basin, PacWave's most common sea.
+SEA_MISSIONS = ("basin_regular", "pacwave_common_10m")
 
 
 @dataclass(frozen=True)
