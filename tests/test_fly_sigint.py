@@ -45,6 +45,15 @@ MOMENTS = [
 
 @pytest.mark.parametrize(("moment", "armed", "flew"), MOMENTS)
 def test_sigint_at_every_moment_exits_130_cleanly(moment: str, armed: bool, flew: bool, tmp_path) -> None:
+    _interrupt_at(moment, armed, flew, tmp_path, "SIGINT")
+
+
+def test_sigterm_in_flight_ends_as_ctrl_c_does(tmp_path) -> None:
+    """What Docker, BlueOS and systemd send to stop a service: the same clean ending, said as SIGTERM."""
+    _interrupt_at(f"fly-step:{STEPS[0]}", True, True, tmp_path, "SIGTERM")
+
+
+def _interrupt_at(moment: str, armed: bool, flew: bool, tmp_path: Path, sig: str) -> None:
     port = free_port()
     # wall clock; held at the start while disarmed, as vehicle-sim does
     sim = VehicleSim(load_mission(TANK), port=f"udpout:{HOST}:{port}", hold_start=True).start()
@@ -54,7 +63,7 @@ def test_sigint_at_every_moment_exits_130_cleanly(moment: str, armed: bool, flew
     try:
         res = subprocess.run(
             [sys.executable, str(CTRL_C), moment, *args],
-            env=dict(os.environ, PYTHONUNBUFFERED="1"),
+            env=dict(os.environ, PYTHONUNBUFFERED="1", CTRL_C_SIGNAL=sig),
             capture_output=True,
             text=True,
             timeout=300,
@@ -66,6 +75,8 @@ def test_sigint_at_every_moment_exits_130_cleanly(moment: str, armed: bool, flew
     assert "Traceback" not in res.stderr + res.stdout, what
     last = [ln for ln in res.stderr.splitlines() if ln.strip()][-1]
     assert last.startswith("interrupted"), what
+    if flew:
+        assert last.startswith("interrupted (SIGTERM)" if sig == "SIGTERM" else "interrupted (Ctrl-C)"), what
     for named in re.findall(r"\S+\.(?:h5|tlog)\b", res.stdout + last):  # only files that are there
         assert Path(named).is_file(), what
     if not armed:

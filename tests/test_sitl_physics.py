@@ -420,11 +420,18 @@ def test_cli_bad_input_is_one_line_and_exit_2(tmp_path: Path) -> None:
             assert "Traceback" not in res.output + res.stderr
 
 
-def _spawn(args: list[str]) -> subprocess.Popen:
+def _spawn(args: list[str], sigint_ignored: bool = False) -> subprocess.Popen:
     env = {**os.environ, "AUVDOCK_COMPILE": "never", "PYTHONUNBUFFERED": "1"}
     env["PYTHONPATH"] = os.pathsep.join([str(ROOT), env.get("PYTHONPATH", "")])
     cmd = [sys.executable, "-m", "auvdock.cli", "sitl-physics", *args]
-    return subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+    def ignore_sigint() -> None:  # as a background job of a non-interactive shell starts
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+    return subprocess.Popen(
+        cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        preexec_fn=ignore_sigint if sigint_ignored else None,
+    )  # fmt: skip
 
 
 def _first_answer(peer: Peer, proc: subprocess.Popen) -> dict:
@@ -489,6 +496,33 @@ def test_cli_ctrl_c_is_one_summary_line_and_exit_130() -> None:
         err
     )
     assert "Traceback" not in out + err
+
+
+@pytest.mark.parametrize(
+    ("sig", "ignored", "said"),
+    [(signal.SIGTERM, False, "SIGTERM"), (signal.SIGINT, True, "Ctrl-C")],
+    ids=["sigterm", "sigint-started-ignored"],
+)
+def test_sigterm_and_a_sigint_started_ignored_end_it_as_ctrl_c_does(sig, ignored, said) -> None:
+    """What Docker, BlueOS and systemd send (SIGTERM), and Ctrl-C to a server started from a script
+    (SIGINT ignored): the same one summary line and exit 130 as a Ctrl-C."""
+    port = _free_udp_port()
+    proc = _spawn(["tank_positioned", "--listen", f"127.0.0.1:{port}"], sigint_ignored=ignored)
+    peer = Peer(("127.0.0.1", port))
+    try:
+        _first_answer(peer, proc)
+        for k in range(1, 20):
+            peer.exchange(frame(k))
+        proc.send_signal(sig)
+        out, err = proc.communicate(timeout=RECV_TIMEOUT_S)
+    finally:
+        peer.close()
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130, (out, err)
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    first = f"interrupted ({said}): physics time 0.050 s, 20 frames"
+    assert len(lines) == 1 and lines[0].startswith(first), err
 
 
 # --- (g) the camera through the real video path ---------------------------------------------------

@@ -50,6 +50,7 @@ except ImportError:  # pragma: no cover
     from click import exceptions as _cx  # type: ignore[no-redef]  # noqa: E402
 
 from auvdock.cli.app import app, err_console, interrupt_reported  # noqa: E402
+from auvdock.runtime.interrupts import sigterm_interrupts  # noqa: E402
 
 if _MAIN_THREAD:
     signal.signal(signal.SIGINT, _previous_sigint)
@@ -66,6 +67,7 @@ def main(argv: list[str] | None = None) -> None:
     import typer
 
     _sigint_stops()
+    sigterm_interrupts()
     try:
         rc = app(args=argv, standalone_mode=False)
     except _cx.NoArgsIsHelpError as e:
@@ -90,7 +92,8 @@ def _sigint_stops() -> None:
     of a non-interactive shell (``auvdock compare ... &`` in a script) inherits SIG_IGN, and Python
     then installs no handler of its own, so the command could not be interrupted at all.  The
     default handler (KeyboardInterrupt) is put back; the commands' own Ctrl-C handling (results
-    kept, worker processes stopped, exit 130) does the rest."""
+    kept, worker processes stopped, exit 130) does the rest.  SIGTERM is made a Ctrl-C
+    (:func:`auvdock.runtime.interrupts.sigterm_interrupts`)."""
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGINT, signal.default_int_handler)
 

@@ -28,6 +28,7 @@ from auvdock.cli.app import (
 )
 from auvdock.config.mission import MissionError
 from auvdock.runtime.clock import Clock, wall_clock
+from auvdock.runtime.interrupts import interrupt_name
 
 #: The clock ``fly`` and ``vehicle-sim`` wait and pace on.
 clock: Clock = wall_clock
@@ -263,7 +264,7 @@ def replay(
         fail_input(str(e))
         raise AssertionError("unreachable") from None
     except KeyboardInterrupt:
-        exit_interrupted(f"interrupted (Ctrl-C); results so far in {h5}")
+        exit_interrupted(f"interrupted ({interrupt_name()}); results so far in {h5}")
     name = controller or (tag.controller if tag is not None else m.controller.type)
     console.print(
         f"[bold]replay[/bold] {tlog.name} with {m.name} / {name}: {result.reason}: {result.message}",

@@ -28,6 +28,7 @@ import typer
 from auvdock.cli.app import app, console, err_console, exit_interrupted, fail_input, load_or_exit
 from auvdock.config.mission import MissionError
 from auvdock.runtime.clock import Clock, wall_clock
+from auvdock.runtime.interrupts import interrupt_name
 
 if TYPE_CHECKING:
     from auvdock.camera.truth_stream import TruthCameraStream
@@ -205,7 +206,7 @@ def sitl_physics(
             last = (now, t, frames)
     except KeyboardInterrupt:
         _stop(physics, stream)
-        exit_interrupted(f"interrupted (Ctrl-C): {_summary(physics, stream)}")
+        exit_interrupted(f"interrupted ({interrupt_name()}): {_summary(physics, stream)}")
     _stop(physics, stream)
     if physics.error is not None:
         err_console.print(

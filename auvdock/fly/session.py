@@ -94,7 +94,7 @@ from auvdock.loop.autopilot import build_autopilot
 from auvdock.loop.closed_loop import LoopResult
 from auvdock.loop.closed_loop import Progress as LoopProgress
 from auvdock.runtime.clock import Clock
-from auvdock.runtime.interrupts import SigintDeferred
+from auvdock.runtime.interrupts import SigintDeferred, interrupt_name
 from auvdock.runtime.stderr_capture import StderrCapture
 from auvdock.vehicle.actuators import ArduSubActuators
 from auvdock.vehicle.ardusub import MODES, NEUTRAL_CHANNELS
@@ -159,7 +159,9 @@ class _Ending:
     t_end: float = 0.0
 
 
-_INTERRUPTED = ("interrupted", "interrupted (Ctrl-C)")
+def _interrupted() -> _Ending:
+    """The ending of a Ctrl-C (or a SIGTERM, which interrupts as one)."""
+    return _Ending("interrupted", f"interrupted ({interrupt_name()})")
 
 
 class _SigintLatch:
@@ -333,7 +335,7 @@ class FlySession:
         try:
             ending = self._fly()
         except KeyboardInterrupt:
-            ending = _Ending(*_INTERRUPTED)
+            ending = _interrupted()
         finally:
             # the one ending; a KeyboardInterrupt can only come before its SIGINT latch is in
             # place, and then nothing of it has run yet: run it again
@@ -343,12 +345,12 @@ class FlySession:
                     try:
                         result = self._finish(ending)
                     except KeyboardInterrupt:
-                        ending = _Ending(*_INTERRUPTED)
+                        ending = _interrupted()
             finally:
                 self._sigint.restore()
         if self._sigint.hit and result.reason != "interrupted":  # Ctrl-C during the ending
             result = dataclasses.replace(
-                result, reason="interrupted", message=f"interrupted (Ctrl-C): {result.message}"
+                result, reason="interrupted", message=f"interrupted ({interrupt_name()}): {result.message}"
             )
         return result
 
@@ -371,8 +373,9 @@ class FlySession:
             self._event(f"takeover: {e}")
             return _Ending("takeover", str(e), t_end=self._t_end)
         except KeyboardInterrupt:
-            self._event(_INTERRUPTED[1])
-            return _Ending(*_INTERRUPTED)
+            ending = _interrupted()
+            self._event(ending.message)
+            return ending
 
     # -- before the loop ------------------------------------------------------------------
     def _connect(self) -> None:
@@ -797,7 +800,8 @@ class FlySession:
                 rec.close()
             return FlyResult("aborted", "error", {}, None, list(self.events))
         if self._sigint.hit and ending.reason != "interrupted":
-            ending = _Ending("interrupted", f"interrupted (Ctrl-C) while ending: {ending.message}")
+            said = f"interrupted ({interrupt_name()}) while ending: {ending.message}"
+            ending = _Ending("interrupted", said)
         self._event(f"end: {ending.reason}: {ending.message}")
         outcome: dict[str, Any] = {}
         if rec is not None and rec.writer is not None:

@@ -40,10 +40,11 @@ _fired: list[str] = []
 
 
 def ctrl_c(moment: str) -> None:
-    """SIGINT to this process (the first time only)."""
+    """SIGINT to this process (the first time only); the signal named by the environment variable
+    ``CTRL_C_SIGNAL`` instead (``SIGTERM``), where it is set."""
     if not _fired:
         _fired.append(moment)
-        os.kill(os.getpid(), signal.SIGINT)
+        os.kill(os.getpid(), getattr(signal, os.environ.get("CTRL_C_SIGNAL", "SIGINT")))
 
 
 def _mentions(args: tuple[Any, ...], kwargs: dict[str, Any], text: str) -> bool:
