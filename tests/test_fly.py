@@ -115,6 +115,24 @@ def test_fly_arm_docks_in_the_tank(loop, tmp_path) -> None:
     assert {"HEARTBEAT", "RC_CHANNELS_OVERRIDE", "ATTITUDE", "COMMAND_ACK"} <= types
 
 
+def test_a_vehicle_handed_over_armed_is_flown_and_left_armed_saying_so(loop, tmp_path) -> None:
+    """A pilot dived the vehicle and handed it over armed: fly --arm sends no arm command, says it took
+    over an armed vehicle, flies, and at the end releases the channels and leaves it armed, saying why;
+    the results record it."""
+    sim, port = loop.vehicle()
+    sim.arm_by_pilot()
+    res = loop.fly(port, tmp_path, "--arm", "--timeout", "40")
+    assert res.exit_code == 0, res.output + res.stderr
+    assert arm_commands(sim) == []  # no arm command sent
+    assert "taking over an armed vehicle: it was armed before fly (not by fly)" in res.output
+    assert "left armed, as it was handed over: fly disarms only a vehicle it armed" in res.output
+    assert "arming (waits" not in res.output
+    assert sim.armed and not any(e.kind == "disarm" for e in sim.events)
+    assert overrides(sim)[-1][1] == RELEASE
+    out = read_run(next(tmp_path.glob("*.h5"))).outcome()
+    assert out["docked"] and out["handed_over_armed"] and not out["armed_by_us"]
+
+
 def test_dry_run_never_arms(loop, tmp_path) -> None:
     sim, port = loop.vehicle()
     res = loop.fly(port, tmp_path, "--timeout", "2")

@@ -251,6 +251,7 @@ class FlySession:
         self._rec: FlyRecorder | None = None
         self._loop_t0 = time.perf_counter()
         self._we_armed = False
+        self._handed_over_armed = False  # the vehicle was armed before fly armed it (a pilot's)
         self._t_end = 0.0
         self._progress: Any = None
         self._on_event: Any = None
@@ -577,7 +578,8 @@ class FlySession:
         """--arm: MANUAL mode, then arm, retried every ARM_RETRY_S while the vehicle refuses
         (its pre-arm reasons appear as events) until ``fly.arm_timeout_s``; else a dry run."""
         if not self.arm_vehicle:
-            self._event("dry run: not arming, sending neutral overrides only")
+            armed = " (the vehicle is armed, not by fly)" if self._vehicle_mode()[0] else ""
+            self._event(f"dry run: not arming, sending neutral overrides only{armed}")
             self._t_armed = self.clock.now()
             return
         manual = MODES["MANUAL"]
@@ -587,6 +589,14 @@ class FlySession:
                 f"vehicle did not change to MANUAL (mode {manual}) within {MODE_TIMEOUT_S:g} s"
             )
         self._event("mode MANUAL")
+        if self._vehicle_mode()[0]:  # handed over armed: fly did not arm it, and will not disarm it
+            self._handed_over_armed = True
+            self._t_armed = self.clock.now()
+            self._event(
+                "taking over an armed vehicle: it was armed before fly (not by fly), and is left armed at "
+                "the end, overrides released"
+            )
+            return
         self._we_armed = True  # from the arm command on, every ending disarms (Ctrl-C before its ack too)
         limit = self.mission.fly.arm_timeout_s
         self._event("arming (waits for the vehicle's pre-arm checks)")
@@ -667,8 +677,9 @@ class FlySession:
     def _check_takeover(self) -> None:
         """Someone else flies (:func:`auvdock.fly.safety.takeover_reason`): raises FlyTakeoverError."""
         armed, mode = self._vehicle_mode()
+        in_control = self._we_armed or self._handed_over_armed  # flying an armed vehicle
         why = takeover_reason(
-            self.state.foreign, self._we_armed, armed, mode, self._vehicle_text_since_arming()
+            self.state.foreign, in_control, armed, mode, self._vehicle_text_since_arming()
         )
         if why is not None:
             raise FlyTakeoverError(why)
@@ -820,6 +831,7 @@ class FlySession:
                 extra={
                     "events_json": rec.events_json(self.events),
                     "armed_by_us": self._we_armed,
+                    "handed_over_armed": self._handed_over_armed,
                     "solver_stderr_lines": self._stderr.lines,
                     "vehicle_parameters_json": json.dumps(self.state.params, sort_keys=True),
                 },
@@ -852,6 +864,8 @@ class FlySession:
                 self.link.disarm()
             except Exception:  # noqa: BLE001
                 self._event("disarm failed")
+        elif self._handed_over_armed and not takeover:
+            self._event("left armed, as it was handed over: fly disarms only a vehicle it armed")
         try:
             self.link.close()
         except Exception:  # noqa: BLE001

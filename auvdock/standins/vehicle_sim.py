@@ -428,6 +428,12 @@ class VehicleSim:
         with self._lock:
             self._commands.prearm_failure = reason
 
+    def arm_by_pilot(self) -> None:
+        """Arm the motors as a pilot's joystick does, not by a command: a vehicle handed over armed (a
+        SimEvent "arm", reason "pilot")."""
+        with self._lock:
+            self._commands._set_armed(True, "pilot", self._k * self.dt)
+
     def pause_telemetry(self, paused: bool = True) -> None:
         """Stop (True) or resume (False) every outgoing message, HEARTBEAT included."""
         with self._lock:
