@@ -92,15 +92,49 @@ def test_refuses_to_arm_at_the_surface_for_a_mission_at_depth(loop, tmp_path) ->
     sim, port = loop.vehicle(surface)
     res = loop.fly(port, tmp_path, "--arm", "--timeout", "5")
     assert res.exit_code == 3, res.output
-    assert res.stderr.strip() == (
-        "aborted: refusing to arm: geofence: depth 0.00 m above the minimum 0.1 m (SCALED_PRESSURE2) "
-        "(and 1 more, in the events)"
-    )
-    assert (
-        "pre-flight: depth 0.00 m (SCALED_PRESSURE2), but the mission starts at 1.00 m: bring the vehicle "
-        "within 0.3 m of it (fly.start_depth_tolerance_m)"
-    ) in res.output
+    median = r"SCALED_PRESSURE2, median of \d+ readings over [0-9.]+ s"
+    assert re.fullmatch(
+        rf"aborted: refusing to arm: geofence: depth 0\.00 m above the minimum 0\.1 m \({median}\) "
+        r"\(and 1 more, in the events\)",
+        res.stderr.strip(),
+    ), res.stderr
+    said = rf"pre-flight: depth 0\.00 m \({median}\), but the mission starts at 1\.00 m: bring the vehicle"
+    assert re.search(said + r"\s+within 0\.3 m of it \(fly\.start_depth_tolerance_m\)", res.output), res.output
     assert arm_commands(sim) == []
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_pre_flight_depth_is_a_median_so_a_noisy_barometer_does_not_refuse_at_random(loop, tmp_path, seed):
+    """SITL's second barometer has 0.2 m of noise by default (SIM_BAR2_RND): one raw reading is off by
+    more than the 0.3 m tolerance one time in eight.  The check reads the median over
+    fly.preflight_window_s, and passes on every seed."""
+    noisy = write_mission(tmp_path / "noisy.yaml", sensors={"depth": {"std_m": 0.2}}, seed=seed)
+    sim, port = loop.vehicle(noisy, noise=True)
+    res = loop.fly(port, tmp_path, "--timeout", "1", mission=noisy)
+    assert "pre-flight checks pass" in res.output, res.output
+    assert arm_commands(sim) == []
+
+
+def test_the_filtered_depth_is_the_median_of_the_window():
+    from types import SimpleNamespace
+
+    from auvdock.fly.telemetry import TelemetrySensors
+    from auvdock.fly.units import pressure_hpa
+
+    tel = TelemetrySensors.__new__(TelemetrySensors)
+    tel._latest, tel._new, tel._pressure = {}, {}, {}
+    tel._surface_hpa = {"SCALED_PRESSURE2": pressure_hpa(0.0)}
+    tel._density = 1025.0  # WATER_DENSITY of pressure_hpa
+    depths = [1.0, 5.0, 1.2, 0.9, 1.1]  # one wild reading
+    msgs = []
+    for k, d in enumerate(depths):
+        msg = SimpleNamespace(press_abs=pressure_hpa(d), get_type=lambda: "SCALED_PRESSURE2")
+        msgs.append((1_000_000 + 200_000 * k, msg))
+    tel.feed(msgs)
+    depth, what = tel.filtered_depth(0.5)  # the last three: 1.2, 0.9, 1.1
+    assert depth == pytest.approx(1.1, abs=2e-3)
+    assert what == "SCALED_PRESSURE2, median of 3 readings over 0.40 s"
+    assert tel.depth_readings(10.0) == 5
 
 
 def test_refuses_to_arm_on_a_low_battery(loop, tmp_path) -> None:

@@ -354,6 +354,12 @@ class FlySpec(Strict):
         description="refuse to arm unless the pressure sensor's depth is this close to the mission's "
         "start depth, m",
     )
+    preflight_window_s: PosFloat = Field(
+        default=2.0,
+        description="the pre-flight depth check reads the median of the pressure sensor's readings over "
+        "the last this long (at least 10, awaited if fewer), s: one raw reading of a noisy sensor "
+        "(SITL's second barometer: 0.2 m by default) would refuse at random",
+    )
     min_battery_v: NonNegFloat = Field(
         default=13.6,
         description="abort below this battery voltage (SYS_STATUS), V (3.4 V per cell of the "

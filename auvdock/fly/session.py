@@ -112,6 +112,8 @@ PARAM_TIMEOUT_S = 3.0
 #: Parameters requested per batch, and how often a batch goes (ArduPilot's request queue is short).
 PARAM_BATCH = 6
 PARAM_BATCH_PERIOD_S = 0.2
+#: The pre-flight depth check's median waits for at least this many pressure readings.
+PREFLIGHT_MIN_READINGS = 10
 #: Arming is retried this often while the vehicle refuses (pre-arm checks settling), s.
 ARM_RETRY_S = 2.0
 #: A mode change is waited for this long, s.
@@ -529,11 +531,17 @@ class FlySession:
         """Before arming, on measured values: the parameter checks, the pressure sensor's depth
         inside the geofence and near the mission's start depth, the dock inside the geofence,
         the battery above its floor.  With --arm any problem refuses to arm (one line, all of
-        them in the events); a dry run reports them and goes on."""
+        them in the events); a dry run reports them and goes on.  The depth is the median of the
+        pressure sensor's readings over the last ``fly.preflight_window_s`` (received since connecting;
+        if fewer than :data:`PREFLIGHT_MIN_READINGS`, more are awaited first, streaming neutral)."""
+        window = self.mission.fly.preflight_window_s
+        enough = lambda: self.telemetry.depth_readings(window) >= PREFLIGHT_MIN_READINGS  # noqa: E731
+        if not enough():
+            self._await("auvd_preflight", enough, window)
         problems = preflight_problems(
             self.mission,
             self._refusals,
-            self.telemetry.measured_depth(),
+            self.telemetry.filtered_depth(window),
             np.asarray(self._model_dock.position(0.0), dtype=float),
             self.state.battery_v,
         )

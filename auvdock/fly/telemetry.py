@@ -38,6 +38,7 @@ current when sent.  The same object serves ``fly`` (fed from the link at each st
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -74,6 +75,10 @@ _IMU_TYPES = ("SCALED_IMU2", "RAW_IMU")
 _DEPTH_TYPES = ("SCALED_PRESSURE2", "VFR_HUD")
 #: The pressure messages and the ArduSub parameter of each one's surface pressure (Pa).
 _PRESSURE_GROUND = {"SCALED_PRESSURE2": "BARO2_GND_PRESS", "SCALED_PRESSURE": "BARO1_GND_PRESS"}
+#: The depth sources, most preferred first (measured_depth, filtered_depth).
+_PRESSURE_SOURCES = ("SCALED_PRESSURE2", "SCALED_PRESSURE", "VFR_HUD")
+#: Pressure readings kept per source for the pre-flight median (a minute at 25 Hz).
+PRESSURE_HISTORY = 1500
 #: Parameters read for the depth (not checked): the surface pressures and the water's density.
 PRESSURE_PARAMETERS = ("BARO1_GND_PRESS", "BARO2_GND_PRESS", "BARO_SPEC_GRAV")
 
@@ -160,6 +165,8 @@ class TelemetrySensors:
         self.sensors = sensors
         self.estimation = estimation
         self._latest: dict[str, tuple[Any, int]] = {}
+        # the pressure readings of the last minute or so, per message type (the pre-flight median)
+        self._pressure: dict[str, deque[tuple[int, Any]]] = {}
         self._new: dict[str, tuple[Any, int]] = {}
         self.frame: MissionFrame | None = None
         self._depth0: float | None = None
@@ -207,6 +214,8 @@ class TelemetrySensors:
             mtype = msg.get_type()
             self._latest[mtype] = (msg, int(stamp))
             self._new[mtype] = (msg, int(stamp))
+            if mtype in _PRESSURE_SOURCES:
+                self._pressure.setdefault(mtype, deque(maxlen=PRESSURE_HISTORY)).append((int(stamp), msg))
 
     def set_pressure_reference(self, params: dict[str, float]) -> str:
         """Take ArduSub's depth calibration from its parameters: the surface pressure of each
@@ -234,11 +243,35 @@ class TelemetrySensors:
         """The vehicle's depth (m) from its pressure sensor (SCALED_PRESSURE2, else SCALED_PRESSURE,
         else ArduSub's VFR_HUD), and the message it came from; None before any arrives.  The
         geofence's depth limits act on this, not on the mission frame's depth."""
-        for mtype in ("SCALED_PRESSURE2", "SCALED_PRESSURE", "VFR_HUD"):
+        for mtype in _PRESSURE_SOURCES:
             msg, _ = self.latest(mtype)
             if msg is not None:
                 return self._depth_of(msg), mtype
         return None
+
+    def filtered_depth(self, window_s: float) -> tuple[float, str] | None:
+        """The depth (m) the pre-flight checks read: the median of the pressure sensor's readings (the
+        source :meth:`measured_depth` reads) received within ``window_s`` of its newest, and what it is
+        (``"SCALED_PRESSURE2, median of 50 readings over 1.96 s"``); None before any arrives."""
+        for mtype in _PRESSURE_SOURCES:
+            history = self._pressure.get(mtype)
+            if history:
+                newest = history[-1][0]
+                recent = [(s, m) for s, m in history if newest - s <= window_s * 1e6]
+                depth = float(np.median([self._depth_of(m) for _, m in recent]))
+                span = (newest - recent[0][0]) * 1e-6
+                return depth, f"{mtype}, median of {len(recent)} readings over {span:.2f} s"
+        return None
+
+    def depth_readings(self, window_s: float) -> int:
+        """How many readings of the depth source :meth:`filtered_depth` reads are within ``window_s``
+        of its newest (0 before any)."""
+        for mtype in _PRESSURE_SOURCES:
+            history = self._pressure.get(mtype)
+            if history:
+                newest = history[-1][0]
+                return sum(1 for s, _ in history if newest - s <= window_s * 1e6)
+        return 0
 
     def distance_from_start(self) -> float | None:
         """Horizontal distance (m) of the vehicle's own position estimate (LOCAL_POSITION_NED)
