@@ -133,6 +133,47 @@ def test_a_vehicle_handed_over_armed_is_flown_and_left_armed_saying_so(loop, tmp
     assert out["docked"] and out["handed_over_armed"] and not out["armed_by_us"]
 
 
+@pytest.mark.parametrize("noise", [False, True], ids=["exact-telemetry", "noisy-telemetry"])
+def test_a_rehearsal_writes_its_truth_and_the_flight_is_scored_on_it(loop, tmp_path, noise) -> None:
+    """vehicle-sim with its truth written (--truth-out); fly --arm docks by its telemetry.  The truth file
+    covers the session (a row every 5th physics step, complete once stopped) and truth-check scores the
+    verdict on it.  With exact telemetry the verdict is right.  With the mission's sensor noise fly judges
+    on a position 7-10 cm off the truth (the vehicle-sim's position source), and declares docked while the
+    truth is farther than the tolerance: truth-check says WRONG and exits 1 (issue 29's finding, which
+    the docking verdict's margin is to answer)."""
+    from typer.testing import CliRunner
+
+    from auvdock.fly.truth_check import check_flight
+
+    truth = tmp_path / "truth.h5"
+    sim, port = loop.vehicle(truth_out=truth, noise=noise, hold_start=True)
+    res = loop.fly(port, tmp_path, "--arm", "--timeout", "40")
+    assert res.exit_code == 0, res.output + res.stderr
+    end_t = sim.t
+    sim.stop()
+    t = read_run(truth)
+    assert t.attrs["complete"] and t.attrs["source"] == "vehicle-sim truth"
+    assert t.time_s[-1] == pytest.approx(end_t, abs=0.06)  # the whole session, every 0.05 s
+    assert np.allclose(np.diff(t.time_s), 0.05)
+    assert t.extras["armed"].max() == 1.0 and t.extras["armed"][0] == 0.0
+    assert "arm (gcs command)" in t.outcome()["events"]
+    flight = next(tmp_path.glob("tank_positioned_*.h5"))
+    c = check_flight(flight, truth)
+    assert c.flight_docked and c.rows > 100
+    assert c.truth_closest_m <= c.truth_distance_at_verdict_m + 1e-12
+    out = CliRunner().invoke(app, ["truth-check", str(flight), str(truth)])
+    if noise:
+        assert not c.verdict_right and c.truth_distance_at_verdict_m > c.tolerance_m
+        assert c.telemetry_error_rms_m > 0.01
+        assert out.exit_code == 1 and "the verdict is WRONG" in out.output, out.output
+    else:
+        assert c.verdict_right and c.truth_distance_at_verdict_m <= c.tolerance_m
+        assert c.telemetry_error_max_m < 1e-3
+        assert out.exit_code == 0 and "the verdict is right" in out.output, out.output
+    bad = CliRunner().invoke(app, ["truth-check", str(flight), str(flight)])
+    assert bad.exit_code == 2 and "not a truth file (vehicle-sim --truth-out writes one)" in bad.output
+
+
 def test_dry_run_never_arms(loop, tmp_path) -> None:
     sim, port = loop.vehicle()
     res = loop.fly(port, tmp_path, "--timeout", "2")

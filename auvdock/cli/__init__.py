@@ -11,7 +11,7 @@ module             commands
 ``validate``       validate
 ``sim``            sim, plot
 ``campaign``       compare, report, sweep
-``fly``            fly, vehicle-sim
+``fly``            fly, vehicle-sim, replay, truth-check
 ``sitl``           sitl-physics
 ``bench``          bench
 ``camera``         markers, calibrate

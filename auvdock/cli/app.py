@@ -108,6 +108,15 @@ def output_dir(path: Path, option: str = "--out") -> Path:
     return path
 
 
+def output_file(path: Path, option: str) -> Path:
+    """``path`` as a file to write (its folder created if need be); or exit 2 with one line naming the
+    option, the path and the problem (a directory is there, the folder cannot be made)."""
+    if path.is_dir():
+        fail_input(f"{option} {path}: is a directory")
+    output_dir(path.parent if str(path.parent) else Path("."), option)
+    return path
+
+
 def load_or_exit(path: Path) -> Mission:
     """Load a mission file, or a shipped mission by name (``gyre``), or exit 2 with one line."""
     from auvdock.config.catalog import resolve

@@ -24,6 +24,7 @@ from auvdock.cli.app import (
     fail_input,
     load_or_exit,
     output_dir,
+    output_file,
     positive_timeout,
 )
 from auvdock.config.mission import MissionError
@@ -194,6 +195,12 @@ def vehicle_sim(
         "--sensor-noise/--no-sensor-noise",
         help="Telemetry with the mission's sensor errors (IMU noise and biases, attitude, depth, position).",
     ),
+    truth_out: Path | None = typer.Option(
+        None,
+        "--truth-out",
+        help="Write the truth (the vehicle's and the dock's trajectories, the arming) to this results "
+        "file, complete when stopped; score a flight on it with auvdock truth-check.",
+    ),
 ) -> None:
     """Run auvdock's 6-DOF simulator as an ArduSub MAVLink vehicle (for rehearsing and testing fly)."""
     from auvdock.config.catalog import missions_dir
@@ -209,17 +216,44 @@ def vehicle_sim(
     mission = mission if mission is not None else mission_option
     path = mission if mission is not None else missions_dir() / "tank_positioned.yaml"
     m = load_or_exit(path)
+    if truth_out is not None:
+        truth_out = output_file(truth_out, "--truth-out")
     console.print(
         f"[bold]vehicle-sim[/bold]: ArduSub-like BlueROV2 (sysid 1) on {port}, mission {m.name}, "
         f"speed {speed:g}x, flow {m.build_flow().describe()}, sensor noise {'on' if noise else 'off'}, "
         f"{'held at the start while disarmed' if hold else 'free from the start'}; Ctrl-C to stop"
     )
     try:
-        sim = VehicleSim(m, port=port, speed=speed, clock=clock, noise=noise, hold_start=hold)
+        sim = VehicleSim(
+            m, port=port, speed=speed, clock=clock, noise=noise, hold_start=hold, truth_out=truth_out
+        )
         sim.run_forever()
     except (OSError, ValueError) as e:
         fail_input(f"--port {port}: {e}")
-    console.print(f"stopped at t = {sim.t:.1f} s; events: " + ", ".join(e.kind for e in sim.events))
+    truth = f"; truth in {truth_out}" if truth_out is not None and truth_out.is_file() else ""
+    console.print(f"stopped at t = {sim.t:.1f} s; events: " + ", ".join(e.kind for e in sim.events) + truth)
+
+
+@app.command("truth-check")
+def truth_check(
+    flight: Path = typer.Argument(..., help="A flight's results file (fly's .h5)."),
+    truth: Path = typer.Argument(..., help="The truth of the same session (vehicle-sim --truth-out)."),
+) -> None:
+    """Score a rehearsed flight on what really happened: its verdict, the truth's closest approach."""
+    from auvdock.fly.truth_check import check_flight
+
+    for p in (flight, truth):
+        if not p.is_file():
+            fail_input(f"{p}: file not found")
+    try:
+        result = check_flight(flight, truth)
+    except (ValueError, OSError, KeyError) as e:
+        fail_input(str(e))
+        return
+    for line in result.lines():
+        console.print(line, markup=False, highlight=False)
+    if not result.verdict_right:
+        raise typer.Exit(code=1)
 
 
 @app.command()

@@ -34,6 +34,7 @@ TELEMETRY_COLUMNS: dict[str, tuple[int, ...]] = {
     "telemetry_age_s": (2,),
     "imu_specific_force_m_s2": (3,),
     "armed": (),
+    "vehicle_time_s": (),
 }
 
 
@@ -83,6 +84,7 @@ class MavlinkPlant:
             "telemetry_age_s": telemetry["age_s"],
             "imu_specific_force_m_s2": specific_force,
             "armed": np.asarray(float(self._armed)),
+            "vehicle_time_s": np.asarray(s.telemetry.vehicle_time_s()),
             **camera_series,
         }
         return Observation(t, x, v_c, readings, steer, None, columns)

@@ -273,6 +273,12 @@ class TelemetrySensors:
                 return sum(1 for s, _ in history if newest - s <= window_s * 1e6)
         return 0
 
+    def vehicle_time_s(self) -> float:
+        """The vehicle's own clock (s since its boot) of the newest ATTITUDE (``time_boot_ms``): the
+        time a rehearsal's truth is recorded on (NaN before one)."""
+        att, _ = self.latest("ATTITUDE")
+        return math.nan if att is None else float(att.time_boot_ms) * 1e-3
+
     def distance_from_start(self) -> float | None:
         """Horizontal distance (m) of the vehicle's own position estimate (LOCAL_POSITION_NED)
         from where the frame was set; None before."""

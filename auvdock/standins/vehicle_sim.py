@@ -132,6 +132,7 @@ from auvdock.standins.telemetry_out import (
     SensorNoise,
     StreamSchedule,
 )
+from auvdock.standins.truth_record import TRUTH_EVERY, TruthRecord
 from auvdock.vehicle.actuators import ActuatorCommand, ArduSubActuators
 from auvdock.vehicle.ardusub import thrust_from_channels
 from auvdock.vehicle.state import POS
@@ -198,6 +199,9 @@ class VehicleSim:
     clock : Clock, optional
         What the simulator paces itself on (default the wall clock; a
         :class:`auvdock.runtime.clock.SimClock` to run in lockstep with a fly session).
+    truth_out : str or Path, optional
+        Write the truth (the vehicle's and the dock's trajectories, the arming) to this results
+        file (:mod:`auvdock.standins.truth_record`), complete when the simulator stops.
     """
 
     def __init__(
@@ -219,6 +223,7 @@ class VehicleSim:
         hold_start: bool = False,
         received_maxlen: int = 100_000,
         clock: Clock | None = None,
+        truth_out: str | Path | None = None,
     ) -> None:
         if not isinstance(mission, Mission):
             mission = load_mission(mission)
@@ -234,6 +239,7 @@ class VehicleSim:
         self.surface = bool(surface)
         self.hold_start = bool(hold_start)
         self.clock: Clock = wall_clock if clock is None else clock
+        self.truth_out = None if truth_out is None else Path(truth_out)
 
         n_sub = mission.simulation.substeps if substeps is None else int(substeps)
         # built whole: CasADi's argument type checks clear a KeyboardInterrupt raised in them
@@ -516,16 +522,32 @@ class VehicleSim:
         its plant (:class:`_StandinPlant`: messages in, the truth stepped, telemetry out, paced on
         the clock), its pilot on the link as the control stage (:class:`_RemotePilot`) and
         ArduSub's channel path as the actuators, every ``dt`` until :meth:`stop`."""
+        truth: TruthRecord | None = None
         try:
             recorder = LoopRecorder(
                 [],
                 vehicle=self.vehicle,
                 dock=self._dock,
                 extra_series={},
-                plant_columns={},
+                plant_columns=dict(_StandinPlant.columns),
                 channels=True,
                 keep=False,
             )
+            if self.truth_out is not None:
+                truth = TruthRecord(
+                    self.truth_out,
+                    mission_yaml=self.mission.to_yaml(),
+                    mission_name=self.mission.name,
+                    controller="vehicle-sim truth",
+                    extra_series=recorder.series,
+                    attrs={
+                        "source": "vehicle-sim truth",
+                        "tolerance_m": self.mission.docking.tolerance_m,
+                        "dt_s": self.dt * TRUTH_EVERY,
+                    },
+                    n_thrusters=self.vehicle.n_thrusters,
+                )
+                recorder.sinks.append(truth)
             closed_loop.run_closed_loop(
                 plant=_StandinPlant(self),
                 autopilot=_RemotePilot(self),
@@ -538,6 +560,18 @@ class VehicleSim:
         except BaseException as e:  # keep it for run_forever; the thread must not die silently
             self._error = e
             self._stop_event.set()
+        finally:
+            if truth is not None:
+                self._finish_truth(truth)
+
+    def _finish_truth(self, truth: TruthRecord) -> None:
+        """The truth file's outcome: how the simulator ended and the arming events; then closed."""
+        try:
+            events = "; ".join(f"{e.t:.2f} s {e.kind} ({e.detail})" for e in self.events)
+            reason = "stopped" if self._error is None else "error"
+            truth.finish({"reason": reason, "events": events, "end_time_s": self.t})
+        finally:
+            truth.close()
 
     def _wait_until(self, when: float) -> None:
         """Wait until ``when`` (the clock's time, s), handling messages as they arrive."""
@@ -731,7 +765,7 @@ class _StandinPlant:
     pilot-input failsafe, the truth stepped over ``dt`` with the motors' thrust (none while
     disarmed), the telemetry due, and the pace on the vehicle's clock (``speed`` x real time)."""
 
-    columns: dict[str, tuple[int, ...]] = {}
+    columns: dict[str, tuple[int, ...]] = {"armed": ()}
 
     def __init__(self, sim: VehicleSim) -> None:
         self.sim = sim
@@ -749,7 +783,9 @@ class _StandinPlant:
         with sim._lock:
             sim._commands.check_failsafe(t)
             x = sim._plant.state
-        return Observation(t, x, np.asarray(sim.flow.velocity(x[POS], t), dtype=float), Readings(t))
+            armed = {"armed": np.asarray(float(sim._commands.armed))}
+        v_c = np.asarray(sim.flow.velocity(x[POS], t), dtype=float)
+        return Observation(t, x, v_c, Readings(t), columns=armed)
 
     def apply(self, t: float, command: ActuatorCommand) -> Applied:
         sim = self.sim

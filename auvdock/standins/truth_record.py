@@ -1,0 +1,72 @@
+"""What really happened in a rehearsal: a stand-in vehicle's truth, written to a results file.
+
+``vehicle-sim --truth-out PATH`` (and :class:`auvdock.standins.vehicle_sim.VehicleSim`'s
+``truth_out``) writes the vehicle's true trajectory, the true dock's and the motors' arming to an
+auvdock results file (the format of ``auvdock sim``'s, :mod:`auvdock.results.store`; it reads back
+with :func:`auvdock.results.store.read_run` and plots like any run): one row every
+:data:`TRUTH_EVERY` physics steps (20 Hz at the default 100 Hz), with the truth's ``state`` (mission
+frame), ``dock_position_m``, ``distance_m`` (the vehicle's body origin to the docking point),
+``channels_us`` and ``armed``.  ``time_s`` is the vehicle's own clock (its ``time_boot_ms``), which a
+flight records with each row (``vehicle_time_s``), so a flight is scored on the truth at the
+instants it flew (:mod:`auvdock.fly.truth_check`).  The outcome, written when the simulator stops:
+the closest approach while armed (m, and when), and the arming events.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from auvdock.results.store import RunWriter
+
+__all__ = ["TRUTH_EVERY", "TruthRecord"]
+
+#: A truth row every this many physics steps.
+TRUTH_EVERY = 5
+
+
+class TruthRecord:
+    """A row sink of the stand-in's closed loop that keeps every :data:`TRUTH_EVERY`-th row.
+
+    Parameters
+    ----------
+    path : str or Path
+        The results file to write (replaced if it is one).
+    meta : dict
+        :class:`RunWriter`'s keyword arguments (``mission_yaml``, ``mission_name``, ``controller``,
+        ``extra_series``, ``attrs``, ``n_thrusters``).
+    """
+
+    def __init__(self, path: str | Path, **meta: Any) -> None:
+        self.path = Path(path)
+        self.writer = RunWriter(self.path, "/", overwrite=True, **meta)
+        self._k = 0
+        self.closest_m = math.inf
+        self.closest_t_s = math.nan
+
+    def append(self, **row: Any) -> None:
+        """Keep the row if it is due; track the closest approach while armed."""
+        armed = bool(np.asarray(row.get("armed", 0.0)) > 0.5)
+        d = float(row["distance_m"])
+        if armed and d < self.closest_m:
+            self.closest_m, self.closest_t_s = d, float(row["time_s"])
+        if self._k % TRUTH_EVERY == 0:
+            self.writer.append(**row)
+        self._k += 1
+
+    def finish(self, outcome: dict[str, Any]) -> None:
+        """Write the outcome (the closest approach while armed added) and mark the file complete."""
+        self.writer.finish(
+            {
+                **outcome,
+                "closest_approach_armed_m": self.closest_m if math.isfinite(self.closest_m) else math.nan,
+                "closest_approach_armed_t_s": self.closest_t_s,
+            }
+        )
+
+    def close(self) -> None:
+        """Close the file (complete or not)."""
+        self.writer.close()
