@@ -48,6 +48,7 @@ from matplotlib.figure import Figure
 from auvdock.campaign.plots import CONTROLLER_ORDER, controller_color, controller_label
 from auvdock.campaign.store import read_results
 from auvdock.sweep.exploration import exploration_report
+from auvdock.sweep.oracle_gap import oracle_gap_report
 from auvdock.sweep.rates import Z95, failed, success_rate, wilson_interval
 from auvdock.sweep.station import station_keeping_report
 
@@ -550,6 +551,17 @@ def report_sweep(h5_path: str | Path, out_dir: str | Path) -> list[Path]:
                 "the vehicle holds with margin is not the thrusters'.\n"
             )
             md.append(_md_table(sh, st))
+        gh, gt, gap_findings = oracle_gap_report(rows, varied)
+        if gt:
+            md.append("## Oracle against the best deployable controller\n")
+            md.append(
+                "Per sea state (and sensor suite): Oracle (told the realised sea and the dock's true motion) "
+                "against the deployable controller that captured most there (the sooner median time breaks a "
+                "tie); captures with Wilson 95 % intervals, median time to capture, and the gaps (`auvdock."
+                "sweep.oracle_gap`).\n"
+            )
+            md.append("\n".join(f"- {f}" for f in gap_findings) + "\n")
+            md.append(_md_table(gh, gt))
     ctrls = _controllers(rows)
     for f in [*varied, *me_cols]:
         labels, _, table = _grouped(rows, f, columns[f])
