@@ -1,0 +1,111 @@
+"""Soak: many dockings in a row in one vehicle-sim session, scored on its truth.
+
+    python benchmarks/soak.py [--flights 10] [--controller oracle] [--noise/--no-noise] [--out DIR]
+
+One :class:`auvdock.standins.vehicle_sim.VehicleSim` (``tank_positioned``, the truth written with
+``truth_out``) serves ``--flights`` runs of ``auvdock fly --arm`` one after another, all in simulated
+time on one :class:`auvdock.runtime.clock.SimClock` (as ``tests/test_fly.py`` flies; the vehicle held at
+the start while disarmed, so each flight starts where the last one was set up).  After each flight it
+prints how the flight ended, whether its results file and tlog are complete, this process's resident
+memory (MB) and open file descriptors, and -- once the simulator stops -- every flight scored on the
+truth (:func:`auvdock.fly.truth_check.check_flight`: fly's verdict right or wrong, the truth's distance
+at the verdict).  Memory and descriptors should stay flat; every file complete.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import tempfile
+import warnings
+from pathlib import Path
+
+
+def _rss_mb() -> float:
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 1024.0
+    return float("nan")
+
+
+def _fds() -> int:
+    return len(os.listdir("/proc/self/fd"))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--flights", type=int, default=10)
+    ap.add_argument("--controller", default="oracle")
+    ap.add_argument("--noise", action=argparse.BooleanOptionalAction, default=True, help="sensor noise")
+    ap.add_argument("--out", type=Path, default=None, help="where the files go (default: a temporary folder)")
+    args = ap.parse_args()
+    warnings.simplefilter("ignore")
+    import h5py
+    import pytest
+    from typer.testing import CliRunner
+
+    import auvdock.cli.fly as cli_fly
+    from auvdock.cli import app
+    from auvdock.config.catalog import resolve
+    from auvdock.config.mission import load_mission
+    from auvdock.fly.truth_check import check_flight
+    from auvdock.runtime.clock import SimClock
+    from auvdock.standins.vehicle_sim import VehicleSim
+
+    out = args.out or Path(tempfile.mkdtemp(prefix="auvdock-soak-"))
+    out.mkdir(parents=True, exist_ok=True)
+    mission = resolve("tank_positioned")
+    clock = SimClock()
+    mp = pytest.MonkeyPatch()
+    mp.setattr(cli_fly, "clock", clock)
+    import socket
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        port = int(s.getsockname()[1])
+    truth = out / "truth.h5"
+    link = f"udpout:127.0.0.1:{port}"
+    m = load_mission(mission)
+    sim = VehicleSim(m, port=link, clock=clock, noise=args.noise, hold_start=True, truth_out=truth).start()
+    runner = CliRunner()
+    flights = []
+    noise = "on" if args.noise else "off"
+    print(f"soak: {args.flights} flights of {args.controller} on {mission.stem}, noise {noise}")
+    print("flight  ended                      files     RSS MB  fds")
+    try:
+        for i in range(args.flights):
+            d = out / f"flight{i:02d}"
+            fly = ["fly", str(mission), "--port", f"udpin:127.0.0.1:{port}", "--out", str(d), "--arm"]
+            res = runner.invoke(app, [*fly, "--timeout", "40", "-c", args.controller])
+            h5 = next(d.glob("*.h5"), None)
+            complete = h5 is not None and h5.with_suffix(".tlog").is_file()
+            if h5 is not None:
+                with h5py.File(h5, "r") as f:
+                    complete = complete and bool(f.attrs["complete"])
+            ended = (res.output.strip().splitlines() or ["?"])[-1][:26]
+            files = "complete" if complete else "INCOMPLETE"
+            print(f"{i:6d}  {ended:26s} {files:9s} {_rss_mb():7.1f} {_fds():4d}")
+            flights.append(h5)
+    finally:
+        sim.stop()
+        clock.close()
+        mp.undo()
+    print(f"truth: {truth}")
+    wrong = 0
+    for i, h5 in enumerate(flights):
+        if h5 is None:
+            print(f"{i:6d}  no results file")
+            continue
+        c = check_flight(h5, truth)
+        wrong += int(not c.verdict_right)
+        said = "docked" if c.flight_docked else c.flight_reason
+        print(
+            f"{i:6d}  fly: {said:8s} truth at the verdict {c.truth_distance_at_verdict_m:.3f} m "
+            f"(tolerance {c.tolerance_m:.3f}): {'right' if c.verdict_right else 'WRONG'}"
+        )
+    print(f"verdict wrong in {wrong} of {len(flights)} flights")
+
+
+if __name__ == "__main__":
+    main()
