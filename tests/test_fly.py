@@ -137,10 +137,10 @@ def test_a_vehicle_handed_over_armed_is_flown_and_left_armed_saying_so(loop, tmp
 def test_a_rehearsal_writes_its_truth_and_the_flight_is_scored_on_it(loop, tmp_path, noise) -> None:
     """vehicle-sim with its truth written (--truth-out); fly --arm docks by its telemetry.  The truth file
     covers the session (a row every 5th physics step, complete once stopped) and truth-check scores the
-    verdict on it.  With exact telemetry the verdict is right.  With the mission's sensor noise fly judges
-    on a position 7-10 cm off the truth (the vehicle-sim's position source), and declares docked while the
-    truth is farther than the tolerance: truth-check says WRONG and exits 1 (issue 29's finding, which
-    the docking verdict's margin is to answer)."""
+    verdict on it.  With exact telemetry the verdict is right.  With the mission's sensor noise (position 1 cm,
+    heading 2 deg per reading) fly judges on one reading: its telemetry 1-3 cm off the truth, it declares
+    docked on a reading 0.042 m from the dock while the truth is 0.082 m away: truth-check says WRONG and
+    exits 1 (issue 29's finding, which a docking verdict with a margin is to answer)."""
     from typer.testing import CliRunner
 
     from auvdock.fly.truth_check import check_flight

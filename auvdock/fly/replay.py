@@ -45,7 +45,6 @@ STEP_MARKER = "auvd_step"
 _STAGES = (
     ("auvd_arm", "while arming"),
     ("auvd_mode", "while setting the vehicle's mode to MANUAL"),
-    ("auvd_preflight", "gathering the pressure readings for the pre-flight checks"),
     ("auvd_frame", "after the telemetry wait, before arming (camera start or pre-flight checks)"),
     ("auvd_wait", "waiting for telemetry"),
     ("auvd_param", "reading the vehicle's parameters"),

@@ -510,10 +510,20 @@ class FlySession:
         )
 
     def _set_frame(self) -> None:
-        """Map the vehicle's current pose onto the mission's start pose."""
+        """Map the vehicle's pose onto the mission's start pose: averaged over the last
+        ``fly.preflight_window_s`` of readings (at least :data:`PREFLIGHT_MIN_READINGS` of each,
+        awaited while streaming neutral if fewer have come)."""
+        window = self.mission.fly.preflight_window_s
+        tel = self.telemetry
+        def enough() -> bool:
+            return min(tel.pose_readings(window), tel.depth_readings(window)) >= PREFLIGHT_MIN_READINGS
+
         self._take_telemetry("auvd_frame")
-        self._frame = self.telemetry.set_frame(self.mission.start_state())
-        self._event(self.telemetry.describe_frame())
+        if not enough():
+            self._await("auvd_frame", enough, window)
+        self._frame = tel.set_frame(self.mission.start_state(), window)
+        n_pos, n_att = tel.frame_readings
+        self._event(f"{tel.describe_frame()} (the mean of {n_pos} positions and {n_att} headings)")
 
     def _start_camera(self) -> None:
         """dock.source: camera -- open the frame source and start detecting."""
@@ -532,12 +542,9 @@ class FlySession:
         inside the geofence and near the mission's start depth, the dock inside the geofence,
         the battery above its floor.  With --arm any problem refuses to arm (one line, all of
         them in the events); a dry run reports them and goes on.  The depth is the median of the
-        pressure sensor's readings over the last ``fly.preflight_window_s`` (received since connecting;
-        if fewer than :data:`PREFLIGHT_MIN_READINGS`, more are awaited first, streaming neutral)."""
+        pressure sensor's readings over the last ``fly.preflight_window_s`` (gathered with the frame's:
+        :meth:`_set_frame`)."""
         window = self.mission.fly.preflight_window_s
-        enough = lambda: self.telemetry.depth_readings(window) >= PREFLIGHT_MIN_READINGS  # noqa: E731
-        if not enough():
-            self._await("auvd_preflight", enough, window)
         problems = preflight_problems(
             self.mission,
             self._refusals,

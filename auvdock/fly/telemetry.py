@@ -77,7 +77,9 @@ _DEPTH_TYPES = ("SCALED_PRESSURE2", "VFR_HUD")
 _PRESSURE_GROUND = {"SCALED_PRESSURE2": "BARO2_GND_PRESS", "SCALED_PRESSURE": "BARO1_GND_PRESS"}
 #: The depth sources, most preferred first (measured_depth, filtered_depth).
 _PRESSURE_SOURCES = ("SCALED_PRESSURE2", "SCALED_PRESSURE", "VFR_HUD")
-#: Pressure readings kept per source for the pre-flight median (a minute at 25 Hz).
+#: The pose messages the mission frame is set on (averaged over a window, as the pre-flight depth is).
+_FRAME_SOURCES = ("ATTITUDE", "LOCAL_POSITION_NED")
+#: Readings kept per source for the pre-flight median and the frame's mean (a minute at 25 Hz).
 PRESSURE_HISTORY = 1500
 #: Parameters read for the depth (not checked): the surface pressures and the water's density.
 PRESSURE_PARAMETERS = ("BARO1_GND_PRESS", "BARO2_GND_PRESS", "BARO_SPEC_GRAV")
@@ -167,6 +169,8 @@ class TelemetrySensors:
         self._latest: dict[str, tuple[Any, int]] = {}
         # the pressure readings of the last minute or so, per message type (the pre-flight median)
         self._pressure: dict[str, deque[tuple[int, Any]]] = {}
+        #: How many positions and headings the mission frame was set on (:meth:`set_frame`).
+        self.frame_readings = (0, 0)
         self._new: dict[str, tuple[Any, int]] = {}
         self.frame: MissionFrame | None = None
         self._depth0: float | None = None
@@ -214,7 +218,7 @@ class TelemetrySensors:
             mtype = msg.get_type()
             self._latest[mtype] = (msg, int(stamp))
             self._new[mtype] = (msg, int(stamp))
-            if mtype in _PRESSURE_SOURCES:
+            if mtype in _PRESSURE_SOURCES or mtype in _FRAME_SOURCES:
                 self._pressure.setdefault(mtype, deque(maxlen=PRESSURE_HISTORY)).append((int(stamp), msg))
 
     def set_pressure_reference(self, params: dict[str, float]) -> str:
@@ -293,13 +297,31 @@ class TelemetrySensors:
         return (None, None) if item is None else item
 
     # -- the frame and the state -------------------------------------------------------------
-    def set_frame(self, x0: np.ndarray) -> MissionFrame:
-        """Map the vehicle's current pose (latest ATTITUDE, LOCAL_POSITION_NED) onto the mission
-        start ``x0`` (12,); the depth sensor's reading now becomes the start depth."""
-        att, _ = self.latest("ATTITUDE")
-        pos, _ = self.latest("LOCAL_POSITION_NED")
-        p, psi = np.array([pos.x, pos.y, pos.z]), float(att.yaw)
+    def _recent(self, mtype: str, window_s: float) -> list[Any]:
+        """The messages of ``mtype`` received within ``window_s`` of its newest (oldest first)."""
+        history = self._pressure.get(mtype)
+        if not history:
+            return []
+        newest = history[-1][0]
+        return [m for s, m in history if newest - s <= window_s * 1e6]
+
+    def pose_readings(self, window_s: float) -> int:
+        """How many of the ATTITUDE and of the LOCAL_POSITION_NED readings (the fewer) are within
+        ``window_s`` of each one's newest: what :meth:`set_frame` averages."""
+        return min(len(self._recent(m, window_s)) for m in _FRAME_SOURCES)
+
+    def set_frame(self, x0: np.ndarray, window_s: float = 0.0) -> MissionFrame:
+        """Map the vehicle's pose onto the mission start ``x0`` (12,): the mean of the LOCAL_POSITION_NED
+        positions and the circular mean of the ATTITUDE headings received within ``window_s`` (s) of
+        the newest (0: the latest only; one heading of a 2 deg noisy compass turns the whole frame, 7 cm
+        at a dock 2 m away); the depth sensor's reading now becomes the start depth."""
+        atts = self._recent("ATTITUDE", window_s) or [self.latest("ATTITUDE")[0]]
+        poss = self._recent("LOCAL_POSITION_NED", window_s) or [self.latest("LOCAL_POSITION_NED")[0]]
+        p = np.mean([[m.x, m.y, m.z] for m in poss], axis=0)
+        yaws = np.array([float(m.yaw) for m in atts])
+        psi = float(np.arctan2(np.mean(np.sin(yaws)), np.mean(np.cos(yaws))))
         self.frame = MissionFrame.at_start(p, psi, x0)
+        self.frame_readings = (len(poss), len(atts))
         for mtype in _DEPTH_TYPES:
             msg, _ = self.latest(mtype)
             if msg is not None:
