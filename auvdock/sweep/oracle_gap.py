@@ -74,6 +74,8 @@ def oracle_gap_report(
             if better:
                 best, best_rate, best_t = c, rate, t
         assert best_rate is not None
+        if best_rate["docked"] == 0:
+            best = "(none captured)"
         gap = 100.0 * (o["rate"] - best_rate["rate"])
         more += int(o["docked"] > best_rate["docked"])
         above += int(o["lo"] > best_rate["hi"])
