@@ -135,12 +135,13 @@ def test_a_vehicle_handed_over_armed_is_flown_and_left_armed_saying_so(loop, tmp
 
 @pytest.mark.parametrize("noise", [False, True], ids=["exact-telemetry", "noisy-telemetry"])
 def test_a_rehearsal_writes_its_truth_and_the_flight_is_scored_on_it(loop, tmp_path, noise) -> None:
-    """vehicle-sim with its truth written (--truth-out); fly --arm docks by its telemetry.  The truth file
-    covers the session (a row every 5th physics step, complete once stopped) and truth-check scores the
-    verdict on it.  With exact telemetry the verdict is right.  With the mission's sensor noise (position 1 cm,
-    heading 2 deg per reading) fly judges on one reading: its telemetry 1-3 cm off the truth, it declares
-    docked on a reading 0.042 m from the dock while the truth is 0.082 m away: truth-check says WRONG and
-    exits 1 (issue 29's finding, which a docking verdict with a margin is to answer)."""
+    """vehicle-sim with its truth written (--truth-out); fly --arm docks by its telemetry.  The truth
+    file covers the session (a row every 5th physics step, complete once stopped) and truth-check scores
+    the verdict on it.  With exact telemetry the verdict is right.  With the mission's sensor noise
+    (position 1 cm, heading 2 deg per reading) fly judges on one reading: its telemetry 1-3 cm off the
+    truth, it declares docked on a reading 0.042 m from the dock while the truth is 0.082 m away:
+    truth-check says WRONG and exits 1 (issue 29's finding, which a docking verdict with a margin is
+    to answer)."""
     from typer.testing import CliRunner
 
     from auvdock.fly.truth_check import check_flight
