@@ -525,6 +525,28 @@ def test_sigterm_and_a_sigint_started_ignored_end_it_as_ctrl_c_does(sig, ignored
     assert len(lines) == 1 and lines[0].startswith(first), err
 
 
+def test_the_truth_is_written_every_50_ms_of_physics_time_and_readable_when_stopped(serve, tmp_path) -> None:
+    """sitl-physics --truth-out: 1 s of frames at 400 Hz (neutral, then the motors pushing forward) gives a
+    results file of the truth every 0.05 s of physics time, complete once the server stops, with whether
+    the motors push, in the format truth-check reads."""
+    from auvdock.results.store import read_run
+
+    truth = tmp_path / "truth.h5"
+    physics, peer = serve(hold_until_thrust=False, truth_out=truth)
+    for k in range(RATE):
+        peer.exchange(frame(k, surge_pwm(0.5) if k >= RATE // 2 else None))
+    physics.stop()
+    t = read_run(truth)
+    assert t.attrs["complete"] and t.attrs["stand_in"] == "sitl-physics"
+    assert t.attrs["source"] == "vehicle-sim truth"  # the one truth format truth-check reads
+    assert np.allclose(np.diff(t.time_s), 0.05, atol=1.5 / RATE)
+    assert t.time_s[-1] >= 0.95 - 1e-9
+    armed = t.extras["armed"]
+    assert armed[0] == 0.0 and armed[-1] == 1.0
+    assert t.state[-1, 6] > t.state[len(armed) // 2 - 1, 6]  # surging once the motors push
+    assert np.allclose(t.distance_m, np.linalg.norm(t.state[:, 0:3] - t.dock_position_m, axis=1))
+
+
 # --- (g) the camera through the real video path ---------------------------------------------------
 
 

@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING
 
 import typer
 
-from auvdock.cli.app import app, console, err_console, exit_interrupted, fail_input, load_or_exit
+from auvdock.cli.app import app, console, err_console, exit_interrupted, fail_input, load_or_exit, output_file
 from auvdock.config.mission import MissionError
 from auvdock.runtime.clock import Clock, wall_clock
 from auvdock.runtime.interrupts import interrupt_name
@@ -111,11 +111,19 @@ def sitl_physics(
     duration: float | None = typer.Option(
         None, "--duration", help="Stop after this much physics time, s (default: until Ctrl-C)."
     ),
+    truth_out: Path | None = typer.Option(
+        None,
+        "--truth-out",
+        help="Write the truth (the vehicle's and the dock's trajectories, whether the motors push) to this "
+        "results file, complete when stopped; score a flight on it with auvdock truth-check.",
+    ),
 ) -> None:
     """Be the physics of ArduPilot SITL (ardusub --model JSON): the real ArduSub flies in auvdock's ocean."""
     from auvdock.standins.sitl_physics import SitlPhysics, parse_listen
 
     m = load_or_exit(mission)
+    if truth_out is not None:
+        truth_out = output_file(truth_out, "--truth-out")
     if duration is not None and not duration > 0:  # also NaN
         fail_input(f"--duration {duration:g}: must be a positive time, s")
     try:
@@ -143,6 +151,7 @@ def sitl_physics(
             dock_offset_ned_m=m.camera.synthetic.dock_offset_m if target is not None else (0.0, 0.0, 0.0),
             on_event=on_event,
             clock=clock,
+            truth_out=truth_out,
         )
     except ValueError as e:
         fail_input(f"{where}: vehicle: {e}")
@@ -255,4 +264,6 @@ def _summary(physics: SitlPhysics, stream: TruthCameraStream | None) -> str:
         text += f", closest {s.closest_m:.3f} m at t = {s.closest_t:.2f} s"
     if stream is not None:
         text += f"; camera {stream.frames_sent} frames"
+    if physics.truth_out is not None and physics.truth_out.is_file():
+        text += f"; truth in {physics.truth_out}"
     return text

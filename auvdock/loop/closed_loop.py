@@ -577,7 +577,7 @@ def run_closed_loop(
                     final(obs, math.nan)
                     result = LoopResult("diverged", f"the state went non-finite at t = {t:.2f} s", t)
                     break
-                dist = float(np.linalg.norm(x[POS] - dock.position(t)))
+                dist = float(np.linalg.norm(x[POS] - dock.position(obs.t)))  # the plant's instant
                 touch = obs.contact
                 if touch is not None and touch.status != "free":
                     recorder.distances.append(dist)

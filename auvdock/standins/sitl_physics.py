@@ -101,6 +101,7 @@ from auvdock.loop.closed_loop import Applied, LoopEnding, LoopRecorder, Observat
 from auvdock.runtime.clock import Clock, wall_clock
 from auvdock.runtime.interrupts import SigintDeferred
 from auvdock.sensing.readings import Readings
+from auvdock.standins.truth_record import TRUTH_PERIOD_S, TruthRecord
 from auvdock.vehicle.actuators import ActuatorCommand, IdealActuators
 from auvdock.vehicle.geometry import wrap_angle
 from auvdock.vehicle.state import POS
@@ -333,6 +334,9 @@ class SitlPhysics:
         ``on_event(event)`` for each :class:`PhysicsEvent`, called from the server's thread.
     clock : Clock, optional
         What the server waits on (default the wall clock).
+    truth_out : str or Path, optional
+        Write the truth (the vehicle's and the dock's trajectories, whether the motors push) to this
+        results file (:mod:`auvdock.standins.truth_record`), complete when the server stops.
 
     Raises
     ------
@@ -353,9 +357,11 @@ class SitlPhysics:
         surface: bool = True,
         on_event: Callable[[PhysicsEvent], None] | None = None,
         clock: Clock | None = None,
+        truth_out: str | Path | None = None,
     ) -> None:
         if not isinstance(mission, Mission):
             mission = load_mission(mission)
+        self.truth_out = None if truth_out is None else Path(truth_out)
         if duration_s is not None and not duration_s > 0:
             raise ValueError(f"duration_s: must be positive, got {duration_s}")
         self.mission = mission
@@ -691,16 +697,33 @@ class SitlPhysics:
         frame to step, repeats answered and restarts handled on the way, the truth stepped and the
         reply sent), SITL's motor outputs as the control stage (:class:`_MotorOutputs`), until
         :meth:`stop` or ``duration_s``."""
+        truth: TruthRecord | None = None
         try:
-            recorder = LoopRecorder(  # no sinks yet, nothing kept: memory stays flat however long it runs
+            recorder = LoopRecorder(  # nothing kept in memory: it stays flat however long it runs
                 [],
                 vehicle=self.vehicle,
                 dock=self.dock,
                 extra_series={},
-                plant_columns={},
+                plant_columns=dict(_SitlPlant.columns),
                 channels=False,
                 keep=False,
             )
+            if self.truth_out is not None:
+                truth = TruthRecord(
+                    self.truth_out,
+                    mission_yaml=self.mission.to_yaml(),
+                    mission_name=self.mission.name,
+                    controller="sitl-physics truth",
+                    extra_series=recorder.series,
+                    attrs={
+                        "source": "vehicle-sim truth",  # the one truth format (auvdock.fly.truth_check)
+                        "stand_in": "sitl-physics",
+                        "tolerance_m": self.mission.docking.tolerance_m,
+                        "dt_s": TRUTH_PERIOD_S,
+                    },
+                    n_thrusters=self.vehicle.n_thrusters,
+                )
+                recorder.sinks.append(truth)
             pilot = _MotorOutputs(self)
             closed_loop.run_closed_loop(
                 plant=_SitlPlant(self, pilot),
@@ -714,6 +737,14 @@ class SitlPhysics:
         except BaseException as e:  # kept for the caller; the thread must not die silently
             self._error = e
             self._stop_event.set()
+        finally:
+            if truth is not None:
+                try:
+                    events = "; ".join(f"{e.t:.2f} s {e.kind}: {e.detail}" for e in self.events)
+                    reason = "stopped" if self._error is None else "error"
+                    truth.finish({"reason": reason, "events": events, "end_time_s": self._t})
+                finally:
+                    truth.close()
 
 
 class _MotorOutputs:
@@ -746,7 +777,7 @@ class _SitlPlant:
     nominal clock); datagrams that are not frames are counted, repeated frames answered again,
     a restart starts the vehicle over; the truth is stepped over the frame and the reply sent."""
 
-    columns: dict[str, tuple[int, ...]] = {}
+    columns: dict[str, tuple[int, ...]] = {"armed": ()}
 
     def __init__(self, sim: SitlPhysics, pilot: _MotorOutputs) -> None:
         self.sim = sim
@@ -781,9 +812,9 @@ class _SitlPlant:
                 if again is None:  # a new frame: this instant's command
                     self.pilot.frame, self._sender = frame, peer
                     x = sim.plant.state
-                    return Observation(
-                        sim._t, x, np.asarray(sim.flow.velocity(x[POS], sim._t)), Readings(sim._t)
-                    )
+                    pushing = {"armed": np.asarray(float(sim._motors_active))}
+                    v_c = np.asarray(sim.flow.velocity(x[POS], sim._t))
+                    return Observation(sim._t, x, v_c, Readings(sim._t), columns=pushing)
             self._send(again, peer)
 
     def apply(self, t: float, command: ActuatorCommand) -> Applied:

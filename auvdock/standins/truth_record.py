@@ -1,12 +1,16 @@
 """What really happened in a rehearsal: a stand-in vehicle's truth, written to a results file.
 
-``vehicle-sim --truth-out PATH`` (and :class:`auvdock.standins.vehicle_sim.VehicleSim`'s
-``truth_out``) writes the vehicle's true trajectory, the true dock's and the motors' arming to an
+``vehicle-sim --truth-out PATH`` and ``sitl-physics --truth-out PATH`` (``truth_out`` of
+:class:`auvdock.standins.vehicle_sim.VehicleSim` and :class:`auvdock.standins.sitl_physics.SitlPhysics`)
+write the vehicle's true trajectory, the true dock's and the motors' arming to an
 auvdock results file (the format of ``auvdock sim``'s, :mod:`auvdock.results.store`; it reads back
-with :func:`auvdock.results.store.read_run` and plots like any run): one row every
-:data:`TRUTH_EVERY` physics steps (20 Hz at the default 100 Hz), with the truth's ``state`` (mission
+with :func:`auvdock.results.store.read_run` and plots like any run): a row every :data:`TRUTH_PERIOD_S`
+of the simulator's time (every 5th physics step of vehicle-sim at 100 Hz; of sitl-physics, the first
+frame at or after each 0.05 s), with the truth's ``state`` (mission
 frame), ``dock_position_m``, ``distance_m`` (the vehicle's body origin to the docking point),
-``channels_us`` and ``armed``.  ``time_s`` is the vehicle's own clock (its ``time_boot_ms``), which a
+``channels_us`` (vehicle-sim) and ``armed`` (sitl-physics: the motors pushing).  ``time_s`` is the
+vehicle's own clock (vehicle-sim's ``time_boot_ms``; sitl-physics' physics time, which SITL's clock
+follows in lockstep), which a
 flight records with each row (``vehicle_time_s``), so a flight is scored on the truth at the
 instants it flew (:mod:`auvdock.fly.truth_check`).  The outcome, written when the simulator stops:
 the closest approach while armed (m, and when), and the arming events.
@@ -22,14 +26,14 @@ import numpy as np
 
 from auvdock.results.store import RunWriter
 
-__all__ = ["TRUTH_EVERY", "TruthRecord"]
+__all__ = ["TRUTH_PERIOD_S", "TruthRecord"]
 
-#: A truth row every this many physics steps.
-TRUTH_EVERY = 5
+#: A truth row every this long of the simulator's time, s.
+TRUTH_PERIOD_S = 0.05
 
 
 class TruthRecord:
-    """A row sink of the stand-in's closed loop that keeps every :data:`TRUTH_EVERY`-th row.
+    """A row sink of the stand-in's closed loop that keeps a row every :data:`TRUTH_PERIOD_S`.
 
     Parameters
     ----------
@@ -43,7 +47,7 @@ class TruthRecord:
     def __init__(self, path: str | Path, **meta: Any) -> None:
         self.path = Path(path)
         self.writer = RunWriter(self.path, "/", overwrite=True, **meta)
-        self._k = 0
+        self._next_t = -math.inf
         self.closest_m = math.inf
         self.closest_t_s = math.nan
 
@@ -53,9 +57,13 @@ class TruthRecord:
         d = float(row["distance_m"])
         if armed and d < self.closest_m:
             self.closest_m, self.closest_t_s = d, float(row["time_s"])
-        if self._k % TRUTH_EVERY == 0:
+        t = float(row["time_s"])
+        if t >= self._next_t - 1e-9:
             self.writer.append(**row)
-        self._k += 1
+            self._next_t = t + TRUTH_PERIOD_S
+        elif t < self._next_t - TRUTH_PERIOD_S:  # the simulator's time went back (a SITL restart)
+            self.writer.append(**row)
+            self._next_t = t + TRUTH_PERIOD_S
 
     def finish(self, outcome: dict[str, Any]) -> None:
         """Write the outcome (the closest approach while armed added) and mark the file complete."""

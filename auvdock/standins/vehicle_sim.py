@@ -132,7 +132,7 @@ from auvdock.standins.telemetry_out import (
     SensorNoise,
     StreamSchedule,
 )
-from auvdock.standins.truth_record import TRUTH_EVERY, TruthRecord
+from auvdock.standins.truth_record import TRUTH_PERIOD_S, TruthRecord
 from auvdock.vehicle.actuators import ActuatorCommand, ArduSubActuators
 from auvdock.vehicle.ardusub import thrust_from_channels
 from auvdock.vehicle.state import POS
@@ -543,7 +543,7 @@ class VehicleSim:
                     attrs={
                         "source": "vehicle-sim truth",
                         "tolerance_m": self.mission.docking.tolerance_m,
-                        "dt_s": self.dt * TRUTH_EVERY,
+                        "dt_s": TRUTH_PERIOD_S,
                     },
                     n_thrusters=self.vehicle.n_thrusters,
                 )
