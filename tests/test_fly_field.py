@@ -123,7 +123,7 @@ def test_the_filtered_depth_is_the_median_of_the_window():
     from auvdock.fly.units import pressure_hpa
 
     tel = TelemetrySensors.__new__(TelemetrySensors)
-    tel._latest, tel._new, tel._pressure = {}, {}, {}
+    tel._latest, tel._new, tel._history = {}, {}, {}
     tel._surface_hpa = {"SCALED_PRESSURE2": pressure_hpa(0.0)}
     tel._density = 1025.0  # WATER_DENSITY of pressure_hpa
     depths = [1.0, 5.0, 1.2, 0.9, 1.1]  # one wild reading

@@ -476,21 +476,27 @@ def test_cli_serves_frames_and_stops_after_duration() -> None:
     assert err == "" and "\x1b" not in out  # plain lines in a pipe
 
 
-def test_cli_ctrl_c_is_one_summary_line_and_exit_130() -> None:
+def _interrupted(frames: int, sig: signal.Signals, sigint_ignored: bool = False) -> tuple[int, str, str]:
+    """The CLI server fed ``frames`` frames, then sent ``sig``: (exit status, stdout, stderr)."""
     port = _free_udp_port()
-    proc = _spawn(["tank_positioned", "--listen", f"127.0.0.1:{port}"])
+    proc = _spawn(["tank_positioned", "--listen", f"127.0.0.1:{port}"], sigint_ignored=sigint_ignored)
     peer = Peer(("127.0.0.1", port))
     try:
         _first_answer(peer, proc)
-        for k in range(1, 40):
+        for k in range(1, frames):
             peer.exchange(frame(k))
-        proc.send_signal(signal.SIGINT)
+        proc.send_signal(sig)
         out, err = proc.communicate(timeout=RECV_TIMEOUT_S)
     finally:
         peer.close()
         if proc.poll() is None:
             proc.kill()
-    assert proc.returncode == 130, (out, err)
+    return proc.returncode, out, err
+
+
+def test_cli_ctrl_c_is_one_summary_line_and_exit_130() -> None:
+    rc, out, err = _interrupted(40, signal.SIGINT)
+    assert rc == 130, (out, err)
     lines = [ln for ln in err.splitlines() if ln.strip()]
     assert len(lines) == 1 and lines[0].startswith("interrupted (Ctrl-C): physics time 0.100 s, 40 frames"), (
         err
@@ -506,20 +512,8 @@ def test_cli_ctrl_c_is_one_summary_line_and_exit_130() -> None:
 def test_sigterm_and_a_sigint_started_ignored_end_it_as_ctrl_c_does(sig, ignored, said) -> None:
     """What Docker, BlueOS and systemd send (SIGTERM), and Ctrl-C to a server started from a script
     (SIGINT ignored): the same one summary line and exit 130 as a Ctrl-C."""
-    port = _free_udp_port()
-    proc = _spawn(["tank_positioned", "--listen", f"127.0.0.1:{port}"], sigint_ignored=ignored)
-    peer = Peer(("127.0.0.1", port))
-    try:
-        _first_answer(peer, proc)
-        for k in range(1, 20):
-            peer.exchange(frame(k))
-        proc.send_signal(sig)
-        out, err = proc.communicate(timeout=RECV_TIMEOUT_S)
-    finally:
-        peer.close()
-        if proc.poll() is None:
-            proc.kill()
-    assert proc.returncode == 130, (out, err)
+    rc, out, err = _interrupted(20, sig, sigint_ignored=ignored)
+    assert rc == 130, (out, err)
     lines = [ln for ln in err.splitlines() if ln.strip()]
     first = f"interrupted ({said}): physics time 0.050 s, 20 frames"
     assert len(lines) == 1 and lines[0].startswith(first), err

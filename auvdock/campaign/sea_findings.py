@@ -14,7 +14,7 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
-from auvdock.controllers.registry import CONTROLLERS, split_controller
+from auvdock.controllers.registry import reads_true_flow as _reads_truth
 
 __all__ = ["sea_findings"]
 
@@ -29,12 +29,6 @@ def _ended(r: dict[str, Any]) -> str:
         speed = r.get("impact_speed_m_s", math.nan)
         return f"collided ({r.get('contact_what') or 'the dock'}, {speed:.2f} m/s)"
     return reason or "?"
-
-
-def _reads_truth(controller: str) -> bool:
-    name, _ = split_controller(controller)
-    entry = CONTROLLERS.get(name)
-    return bool(entry and entry.reads_true_flow)
 
 
 def sea_findings(records: Sequence[dict[str, Any]]) -> str:

@@ -124,8 +124,9 @@ class BaselineMPC:
         if self.sea is not None and est.flow_ned is not None:
             # told the true sea: the true current held plus the sea's water ahead at the vehicle
             p = np.asarray(est.state[0:3], dtype=float)
-            current = np.asarray(est.flow_ned, dtype=float) - self.sea.kinematics_at(p, est.t)[0]
-            water = WaterAhead.from_sea(current, self.sea, p, est.t, self.mpc.dt, self.mpc.N)
+            waves = WaterAhead.from_sea(np.zeros(3), self.sea, p, est.t, self.mpc.dt, self.mpc.N)
+            current = np.asarray(est.flow_ned, dtype=float) - waves.velocity_ned[0]  # the true water now
+            water = WaterAhead(waves.velocity_ned + current, waves.accel_ned)
         r = self.mpc.solve(
             est.t, est.state, u_prev, None if self.name == "naive" else est.flow_ned, water=water
         )

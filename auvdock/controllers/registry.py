@@ -48,6 +48,7 @@ __all__ = [
     "controller_short_label",
     "VARIANTS",
     "split_controller",
+    "reads_true_flow",
     "controller_specs",
     "settings_union",
     "settings_for",
@@ -171,6 +172,12 @@ def controller_short_label(spec: str) -> str:
 
 #: ``controller.variant`` values: the paper's formulation, or the robust one (the default).
 VARIANTS = ("paper", "robust")
+
+
+def reads_true_flow(spec: str) -> bool:
+    """Whether the controller ``NAME`` or ``NAME@VARIANT`` is told the truth by its definition (Kinematic,
+    Oracle: :attr:`ControllerEntry.reads_true_flow`); ValueError for an unknown one."""
+    return CONTROLLERS[split_controller(spec)[0]].reads_true_flow
 
 
 def split_controller(spec: str) -> tuple[str, str | None]:

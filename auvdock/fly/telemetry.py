@@ -80,7 +80,7 @@ _PRESSURE_SOURCES = ("SCALED_PRESSURE2", "SCALED_PRESSURE", "VFR_HUD")
 #: The pose messages the mission frame is set on (averaged over a window, as the pre-flight depth is).
 _FRAME_SOURCES = ("ATTITUDE", "LOCAL_POSITION_NED")
 #: Readings kept per source for the pre-flight median and the frame's mean (a minute at 25 Hz).
-PRESSURE_HISTORY = 1500
+READING_HISTORY = 1500
 #: Parameters read for the depth (not checked): the surface pressures and the water's density.
 PRESSURE_PARAMETERS = ("BARO1_GND_PRESS", "BARO2_GND_PRESS", "BARO_SPEC_GRAV")
 
@@ -167,8 +167,9 @@ class TelemetrySensors:
         self.sensors = sensors
         self.estimation = estimation
         self._latest: dict[str, tuple[Any, int]] = {}
-        # the pressure readings of the last minute or so, per message type (the pre-flight median)
-        self._pressure: dict[str, deque[tuple[int, Any]]] = {}
+        # the pressure and pose readings of the last minute or so, per message type (the pre-flight median,
+        # the mission frame's mean)
+        self._history: dict[str, deque[tuple[int, Any]]] = {}
         #: How many positions and headings the mission frame was set on (:meth:`set_frame`).
         self.frame_readings = (0, 0)
         self._new: dict[str, tuple[Any, int]] = {}
@@ -219,7 +220,7 @@ class TelemetrySensors:
             self._latest[mtype] = (msg, int(stamp))
             self._new[mtype] = (msg, int(stamp))
             if mtype in _PRESSURE_SOURCES or mtype in _FRAME_SOURCES:
-                self._pressure.setdefault(mtype, deque(maxlen=PRESSURE_HISTORY)).append((int(stamp), msg))
+                self._history.setdefault(mtype, deque(maxlen=READING_HISTORY)).append((int(stamp), msg))
 
     def set_pressure_reference(self, params: dict[str, float]) -> str:
         """Take ArduSub's depth calibration from its parameters: the surface pressure of each
@@ -258,7 +259,7 @@ class TelemetrySensors:
         source :meth:`measured_depth` reads) received within ``window_s`` of its newest, and what it is
         (``"SCALED_PRESSURE2, median of 50 readings over 1.96 s"``); None before any arrives."""
         for mtype in _PRESSURE_SOURCES:
-            history = self._pressure.get(mtype)
+            history = self._history.get(mtype)
             if history:
                 newest = history[-1][0]
                 recent = [(s, m) for s, m in history if newest - s <= window_s * 1e6]
@@ -271,7 +272,7 @@ class TelemetrySensors:
         """How many readings of the depth source :meth:`filtered_depth` reads are within ``window_s``
         of its newest (0 before any)."""
         for mtype in _PRESSURE_SOURCES:
-            history = self._pressure.get(mtype)
+            history = self._history.get(mtype)
             if history:
                 newest = history[-1][0]
                 return sum(1 for s, _ in history if newest - s <= window_s * 1e6)
@@ -299,7 +300,7 @@ class TelemetrySensors:
     # -- the frame and the state -------------------------------------------------------------
     def _recent(self, mtype: str, window_s: float) -> list[Any]:
         """The messages of ``mtype`` received within ``window_s`` of its newest (oldest first)."""
-        history = self._pressure.get(mtype)
+        history = self._history.get(mtype)
         if not history:
             return []
         newest = history[-1][0]

@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from auvdock.results.store import read_run
+from auvdock.standins.truth_record import TRUTH_SOURCE
 from auvdock.vehicle.geometry import rotation_zyx
 
 __all__ = ["TruthCheck", "check_flight"]
@@ -99,7 +100,7 @@ def check_flight(flight: str | Path, truth: str | Path) -> TruthCheck:
     tr = read_run(truth)
     if "vehicle_time_s" not in f.extras:
         raise ValueError(f"{flight}: no vehicle_time_s rows (a flight recorded before they were)")
-    if tr.attrs.get("source") != "vehicle-sim truth":
+    if tr.attrs.get("source") != TRUTH_SOURCE:
         raise ValueError(f"{truth}: not a truth file (vehicle-sim --truth-out writes one)")
     tv = np.asarray(f.extras["vehicle_time_s"], dtype=float)
     ok = np.isfinite(tv) & (tv >= tr.time_s[0]) & (tv <= tr.time_s[-1])

@@ -101,7 +101,7 @@ from auvdock.loop.closed_loop import Applied, LoopEnding, LoopRecorder, Observat
 from auvdock.runtime.clock import Clock, wall_clock
 from auvdock.runtime.interrupts import SigintDeferred
 from auvdock.sensing.readings import Readings
-from auvdock.standins.truth_record import TRUTH_PERIOD_S, TruthRecord
+from auvdock.standins.truth_record import TruthRecord
 from auvdock.vehicle.actuators import ActuatorCommand, IdealActuators
 from auvdock.vehicle.geometry import wrap_angle
 from auvdock.vehicle.state import POS
@@ -709,19 +709,8 @@ class SitlPhysics:
                 keep=False,
             )
             if self.truth_out is not None:
-                truth = TruthRecord(
-                    self.truth_out,
-                    mission_yaml=self.mission.to_yaml(),
-                    mission_name=self.mission.name,
-                    controller="sitl-physics truth",
-                    extra_series=recorder.series,
-                    attrs={
-                        "source": "vehicle-sim truth",  # the one truth format (auvdock.fly.truth_check)
-                        "stand_in": "sitl-physics",
-                        "tolerance_m": self.mission.docking.tolerance_m,
-                        "dt_s": TRUTH_PERIOD_S,
-                    },
-                    n_thrusters=self.vehicle.n_thrusters,
+                truth = TruthRecord.for_stand_in(
+                    self.truth_out, "sitl-physics", self.mission, recorder.series, self.vehicle.n_thrusters
                 )
                 recorder.sinks.append(truth)
             pilot = _MotorOutputs(self)
@@ -739,12 +728,8 @@ class SitlPhysics:
             self._stop_event.set()
         finally:
             if truth is not None:
-                try:
-                    events = "; ".join(f"{e.t:.2f} s {e.kind}: {e.detail}" for e in self.events)
-                    reason = "stopped" if self._error is None else "error"
-                    truth.finish({"reason": reason, "events": events, "end_time_s": self._t})
-                finally:
-                    truth.close()
+                events = "; ".join(f"{e.t:.2f} s {e.kind}: {e.detail}" for e in self.events)
+                truth.end(self._error is not None, events, self._t)
 
 
 class _MotorOutputs:

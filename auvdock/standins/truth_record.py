@@ -20,13 +20,19 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from auvdock.results.store import RunWriter
 
-__all__ = ["TRUTH_PERIOD_S", "TruthRecord"]
+if TYPE_CHECKING:
+    from auvdock.config.mission import Mission
+
+__all__ = ["TRUTH_PERIOD_S", "TRUTH_SOURCE", "TruthRecord"]
+
+#: The ``source`` attribute of every truth file (what :func:`auvdock.fly.truth_check.check_flight` reads).
+TRUTH_SOURCE = "vehicle-sim truth"
 
 #: A truth row every this long of the simulator's time, s.
 TRUTH_PERIOD_S = 0.05
@@ -50,6 +56,41 @@ class TruthRecord:
         self._next_t = -math.inf
         self.closest_m = math.inf
         self.closest_t_s = math.nan
+
+    @classmethod
+    def for_stand_in(
+        cls,
+        path: str | Path,
+        stand_in: str,
+        mission: Mission,
+        series: dict[str, tuple[int, ...]],
+        n_thrusters: int,
+    ) -> TruthRecord:
+        """The truth file of stand-in ``stand_in`` ("vehicle-sim", "sitl-physics") flying ``mission``, its
+        rows carrying ``series`` (the loop recorder's) beyond the base datasets."""
+        return cls(
+            path,
+            mission_yaml=mission.to_yaml(),
+            mission_name=mission.name,
+            controller=f"{stand_in} truth",
+            extra_series=series,
+            attrs={
+                "source": TRUTH_SOURCE,
+                "stand_in": stand_in,
+                "tolerance_m": mission.docking.tolerance_m,
+                "dt_s": TRUTH_PERIOD_S,
+            },
+            n_thrusters=n_thrusters,
+        )
+
+    def end(self, failed: bool, events: str, end_time_s: float) -> None:
+        """Finish (reason "stopped", or "error" when the stand-in ``failed``; its ``events`` as text and
+        its time at the end, s) and close, closed even if finishing raises."""
+        try:
+            reason = "error" if failed else "stopped"
+            self.finish({"reason": reason, "events": events, "end_time_s": float(end_time_s)})
+        finally:
+            self.close()
 
     def append(self, **row: Any) -> None:
         """Keep the row if it is due; track the closest approach while armed."""

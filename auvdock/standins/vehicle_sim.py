@@ -132,7 +132,7 @@ from auvdock.standins.telemetry_out import (
     SensorNoise,
     StreamSchedule,
 )
-from auvdock.standins.truth_record import TRUTH_PERIOD_S, TruthRecord
+from auvdock.standins.truth_record import TruthRecord
 from auvdock.vehicle.actuators import ActuatorCommand, ArduSubActuators
 from auvdock.vehicle.ardusub import thrust_from_channels
 from auvdock.vehicle.state import POS
@@ -534,18 +534,8 @@ class VehicleSim:
                 keep=False,
             )
             if self.truth_out is not None:
-                truth = TruthRecord(
-                    self.truth_out,
-                    mission_yaml=self.mission.to_yaml(),
-                    mission_name=self.mission.name,
-                    controller="vehicle-sim truth",
-                    extra_series=recorder.series,
-                    attrs={
-                        "source": "vehicle-sim truth",
-                        "tolerance_m": self.mission.docking.tolerance_m,
-                        "dt_s": TRUTH_PERIOD_S,
-                    },
-                    n_thrusters=self.vehicle.n_thrusters,
+                truth = TruthRecord.for_stand_in(
+                    self.truth_out, "vehicle-sim", self.mission, recorder.series, self.vehicle.n_thrusters
                 )
                 recorder.sinks.append(truth)
             closed_loop.run_closed_loop(
@@ -562,16 +552,8 @@ class VehicleSim:
             self._stop_event.set()
         finally:
             if truth is not None:
-                self._finish_truth(truth)
-
-    def _finish_truth(self, truth: TruthRecord) -> None:
-        """The truth file's outcome: how the simulator ended and the arming events; then closed."""
-        try:
-            events = "; ".join(f"{e.t:.2f} s {e.kind} ({e.detail})" for e in self.events)
-            reason = "stopped" if self._error is None else "error"
-            truth.finish({"reason": reason, "events": events, "end_time_s": self.t})
-        finally:
-            truth.close()
+                events = "; ".join(f"{e.t:.2f} s {e.kind} ({e.detail})" for e in self.events)
+                truth.end(self._error is not None, events, self.t)
 
     def _wait_until(self, when: float) -> None:
         """Wait until ``when`` (the clock's time, s), handling messages as they arrive."""

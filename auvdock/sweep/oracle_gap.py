@@ -17,16 +17,12 @@ from typing import Any
 
 import numpy as np
 
-from auvdock.controllers.registry import CONTROLLERS, split_controller
+from auvdock.controllers.registry import reads_true_flow as _reads_truth
+from auvdock.controllers.registry import split_controller
 from auvdock.sweep.rates import success_rate
 from auvdock.sweep.station import SEA_FIELDS
 
 __all__ = ["oracle_gap_report"]
-
-
-def _reads_truth(controller: str) -> bool:
-    entry = CONTROLLERS.get(split_controller(controller)[0])
-    return bool(entry and entry.reads_true_flow)
 
 
 def _median_time(rows: Sequence[dict[str, Any]]) -> float:
