@@ -46,7 +46,7 @@ from auvdock.camera.video_in import Frame, FrameSource, LatestFrameGrabber
 from auvdock.runtime.clock import Clock, wall_clock
 from auvdock.vehicle.geometry import rotation_zyx
 from auvdock.vehicle.state import POS
-from auvdock.world.dock import HeaveDock
+from auvdock.world.dock import TranslatingDock
 
 if TYPE_CHECKING:
     from auvdock.config.mission import Mission
@@ -67,7 +67,7 @@ class SyntheticCamera:
         The markers on the dock.
     mount : CameraMount
         Camera pose on the vehicle.
-    dock : HeaveDock
+    dock : TranslatingDock
         Where the dock really is (the mission's dock, possibly moved by ``offset_ned_m``).
     pose_fn : callable
         ``pose_fn() -> (t, eta)``: mission time (s) and vehicle pose (6,) in the mission
@@ -91,7 +91,7 @@ class SyntheticCamera:
         camera: CameraModel,
         layout: MarkerLayout,
         mount: CameraMount,
-        dock: HeaveDock,
+        dock: TranslatingDock,
         pose_fn: PoseFn,
         *,
         rate_hz: float = 15.0,
@@ -121,7 +121,7 @@ class SyntheticCamera:
     def from_mission(
         cls,
         mission: Mission,
-        dock: HeaveDock,
+        dock: TranslatingDock,
         pose_fn: PoseFn,
         *,
         seed: int | None = None,

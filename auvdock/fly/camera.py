@@ -18,7 +18,7 @@ import numpy as np
 from auvdock.config.mission import Mission
 from auvdock.runtime.clock import Clock
 from auvdock.vehicle.state import ETA
-from auvdock.world.dock import HeaveDock, TrackedDock
+from auvdock.world.dock import TrackedDock, TranslatingDock
 
 if TYPE_CHECKING:
     from auvdock.camera.tracker import DockFix
@@ -50,7 +50,7 @@ class CameraTracking:
     ----------
     mission : Mission
         ``camera`` settings and the dock's markers.
-    model_dock : HeaveDock
+    model_dock : TranslatingDock
         The mission's dock (what the synthetic camera renders, moved by its offset).
     dock : TrackedDock
         The dock filter the fixes update.
@@ -63,7 +63,7 @@ class CameraTracking:
     def __init__(
         self,
         mission: Mission,
-        model_dock: HeaveDock,
+        model_dock: TranslatingDock,
         dock: TrackedDock,
         clock: Clock,
         on_event: Callable[[str], None],

@@ -47,16 +47,22 @@ class MavlinkPlant:
         self._t_start = 0.0
         self._t = 0.0
         self._armed = False
+        self._clock_set = False
 
     def start(self) -> None:
-        """The loop's t = 0 is now on the session's clock."""
+        """The loop's t = 0 is now on the session's clock (and, at the first observation, on the vehicle's:
+        the dock's known motion runs on it)."""
         self._t_start = self.session.clock.now()
+        self._clock_set = False
 
     def observe(self, t: float) -> Observation:
         """Drain the telemetry, check it, and report the vehicle at mission time ``t`` (s)."""
         s = self.session
         self._t = t
         s._now_us = s._take_telemetry("auvd_step", int(round(t / s.dt)))
+        if not self._clock_set:
+            s._set_dock_clock(t)
+            self._clock_set = True
         s._check_takeover()
         s._check_limits()
         s._refresh_rates()

@@ -93,12 +93,13 @@ from auvdock.loop import closed_loop
 from auvdock.loop.autopilot import build_autopilot
 from auvdock.loop.closed_loop import LoopResult
 from auvdock.loop.closed_loop import Progress as LoopProgress
+from auvdock.loop.verdict import MarginVerdict, Verdict
 from auvdock.runtime.clock import Clock
 from auvdock.runtime.interrupts import SigintDeferred, interrupt_name
 from auvdock.runtime.stderr_capture import StderrCapture
 from auvdock.vehicle.actuators import ArduSubActuators
 from auvdock.vehicle.ardusub import MODES, NEUTRAL_CHANNELS
-from auvdock.world.dock import HeaveDock, TrackedDock
+from auvdock.world.dock import ClockedDock, TrackedDock
 
 __all__ = ["FlySession", "FlyResult", "FlyAbortError", "FlyTakeoverError", "EXIT_CODES"]
 
@@ -159,11 +160,25 @@ class _Ending:
     docked: bool = False
     contact: np.ndarray | None = None
     t_end: float = 0.0
+    verdict: Verdict | None = None
 
 
 def _interrupted() -> _Ending:
     """The ending of a Ctrl-C (or a SIGTERM, which interrupts as one)."""
     return _Ending("interrupted", f"interrupted ({interrupt_name()})")
+
+
+def _verdict_outcome(verdict: Verdict | None) -> dict[str, Any]:
+    """The outcome figures of the docking verdict (:mod:`auvdock.loop.verdict`): its basis, the
+    estimated distance and its 95 % bound when docked was declared, else the smallest bound reached
+    (the closest it came to a verdict)."""
+    if verdict is None:
+        return {"verdict_basis": "", "verdict_distance_m": math.nan, "verdict_bound_m": math.nan}
+    return {
+        "verdict_basis": verdict.basis,
+        "verdict_distance_m": verdict.distance_m,
+        "verdict_bound_m": verdict.bound_m,
+    }
 
 
 class _SigintLatch:
@@ -309,8 +324,9 @@ class FlySession:
                 "the simulated dock telemetry is for sim; fly takes the dock's motion from its model "
                 "(dock.heave) or a tracked dock (dock.source)",
             )
-        self._model_dock: HeaveDock = mission.dock.build()
-        self.dock: HeaveDock | TrackedDock = self._model_dock
+        # the mission's dock motion on the vehicle's clock (its offset set as the control loop starts)
+        self._model_dock = ClockedDock(mission.dock.build())
+        self.dock: ClockedDock | TrackedDock = self._model_dock
         self._landing: LandingTargetSource | None = None
         if mission.dock.source == "mavlink":
             self.dock = TrackedDock(self._model_dock)
@@ -683,9 +699,17 @@ class FlySession:
             progress=progress,
             on_event=self._event,
             control_guard=quiet,
+            verdict=MarginVerdict(
+                self.mission.docking.tolerance_m, self.dock, self.mission.sensors.position.figures()[2]
+            ),
         )
         return _Ending(
-            result.reason, result.message, docked=result.docked, contact=result.contact, t_end=result.t_end
+            result.reason,
+            result.message,
+            docked=result.docked,
+            contact=result.contact,
+            t_end=result.t_end,
+            verdict=result.verdict,
         )
 
     # -- safety checks --------------------------------------------------------------------
@@ -771,6 +795,18 @@ class FlySession:
             raise FlyAbortError(self.events[-1][1] if self.events else "camera: dock lost")
         return state == "tracking", series
 
+    def _set_dock_clock(self, t: float) -> None:
+        """The mission's dock motion runs on the vehicle's clock (:class:`auvdock.world.dock.ClockedDock`):
+        mission time ``t`` (s) is now; the vehicle's time now is its newest ATTITUDE's ``time_boot_ms``
+        plus that message's age on arrival."""
+        att, stamp = self.telemetry.latest("ATTITUDE")
+        if att is None or stamp is None:
+            return
+        vehicle_now = float(att.time_boot_ms) * 1e-3 + max(0, self._now_us - stamp) * 1e-6
+        self._model_dock.offset_s = vehicle_now - t
+        offset = vehicle_now - t
+        self._event(f"dock: its motion on the vehicle's clock (mission t = 0 at vehicle time {offset:.3f} s)")
+
     def _check_landing_target(self, t: float, x: np.ndarray) -> None:
         """dock.source: mavlink -- re-anchor the dock; abort without (or after losing) LANDING_TARGET."""
         assert self._landing is not None
@@ -849,6 +885,7 @@ class FlySession:
                     "handed_over_armed": self._handed_over_armed,
                     "solver_stderr_lines": self._stderr.lines,
                     "vehicle_parameters_json": json.dumps(self.state.params, sort_keys=True),
+                    **_verdict_outcome(ending.verdict),
                 },
             )
             rec.finish(outcome)

@@ -33,6 +33,7 @@ from auvdock.sensing.settings import SensorSettings
 from auvdock.vehicle import Vehicle
 
 if TYPE_CHECKING:
+    from auvdock.estimation.estimate import Estimate
     from auvdock.world.dock import DockMotion
 
 __all__ = ["Autopilot", "build_autopilot", "knows_dock_from_telemetry"]
@@ -62,6 +63,9 @@ class Autopilot:
 
     Attributes
     ----------
+    last_estimate : Estimate or None
+        The estimation stage's newest estimate (what a vehicle's docking verdict judges,
+        :mod:`auvdock.loop.verdict`); None before the first step.
     build_time_s : float
         Wall time spent building the controller (solver construction and, on first use
         of a problem, compiling it), s.  Kept out of a run's ``wall_time_s``.
@@ -96,6 +100,7 @@ class Autopilot:
         self.reads_true_flow = CONTROLLERS[self.name].reads_true_flow
         self.u_prev = np.zeros(vehicle.n_thrusters)
         self.u_applied = np.zeros(vehicle.n_thrusters)
+        self.last_estimate: Estimate | None = None
         self.build_time_s = time.perf_counter() - t0
 
     @property
@@ -119,6 +124,7 @@ class Autopilot:
         self.guidance.reset()
         self.u_prev = np.zeros(self.vehicle.n_thrusters)
         self.u_applied = np.zeros(self.vehicle.n_thrusters)
+        self.last_estimate = None
 
     def set_applied(self, thrust: np.ndarray) -> None:
         """The thrust (n,, N) the thrusters really produce over the coming period, where the
@@ -138,6 +144,7 @@ class Autopilot:
         else:
             with timing.part("estimation"):
                 est, recorded = self.estimation.step(readings, self.u_applied)
+        self.last_estimate = est
         steering = self.guidance.update(est)
         if self.guidance.records:
             recorded = {**recorded, **steering}

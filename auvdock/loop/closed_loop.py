@@ -7,7 +7,8 @@ controller.step(x)``::
 
     for k in 0, 1, ...:                       t = k dt, on the plant's clock
         obs = plant.observe(t)                the state judged, the readings, the water
-        docked?  -> final row, end            (the docking rule, on obs.state)
+        docked?  -> final row, end            (the docking rule: on obs.state, or a vehicle's
+                                              verdict on its estimate, auvdock.loop.verdict)
         no readings (stale)? -> neutral, next
         no dock to steer to? -> hold wrench   (DepthAttitudeHold through the actuators)
         else: out = autopilot.step(readings)  estimation stage + controller
@@ -54,6 +55,7 @@ if TYPE_CHECKING:
     from auvdock.controllers.base import ControlOutput
     from auvdock.controllers.hold import DepthAttitudeHold
     from auvdock.loop.guidance import LostTrack
+    from auvdock.loop.verdict import MarginVerdict, Verdict
     from auvdock.vehicle import Vehicle
     from auvdock.world.dock_body import Contact
 
@@ -218,6 +220,7 @@ class LoopResult:
     wall_time_s: float = 0.0
     touch: Contact | None = None
     lost_tracks: list[LostTrack] | None = None
+    verdict: Verdict | None = None
 
 
 @dataclass
@@ -508,6 +511,7 @@ def run_closed_loop(
     on_event: Callable[[str], None] | None = None,
     step_guard: Callable[[], contextlib.AbstractContextManager[Any]] = _whole,
     control_guard: Callable[[], contextlib.AbstractContextManager[Any]] = contextlib.nullcontext,
+    verdict: MarginVerdict | None = None,
 ) -> LoopResult:
     """Run one closed loop to its ending (see the module docstring).
 
@@ -540,6 +544,10 @@ def run_closed_loop(
         Context for one whole step (default: Ctrl-C held back to the step's end).
     control_guard : callable
         Context for the autopilot's step alone (fly: what CasADi prints is counted, not shown).
+    verdict : MarginVerdict, optional
+        A vehicle's docking rule: docked when the 95 % bound of the newest estimate's distance from
+        the dock is within ``tolerance_m`` (the autopilot's ``last_estimate``); None: ``obs.state``
+        within ``tolerance_m`` (the truth, in simulation).
 
     Returns
     -------
@@ -586,10 +594,19 @@ def run_closed_loop(
                     what = f"{touch.describe()} at t = {t:.2f} s"
                     result = LoopResult(touch.status, what, t, captured, x.copy(), touch=touch)
                     break
-                if tolerance_m is not None and obs.steer and dist <= tolerance_m:  # (not out of sight)
+                judged = None
+                if verdict is not None and tolerance_m is not None:
+                    est = getattr(autopilot, "last_estimate", None)
+                    fresh = est is not None and obs.t - est.t <= 2.0 * dt + 1e-9  # (not from before a hold)
+                    judged = verdict.judge(est if fresh else None)
+                    inside = judged is not None and judged.docked
+                else:
+                    inside = tolerance_m is not None and dist <= tolerance_m
+                if inside and obs.steer:  # (not out of sight)
                     recorder.distances.append(dist)
                     final(obs, dist)
-                    result = LoopResult("docked", f"docked at t = {t:.2f} s", t, True, x.copy())
+                    said = f"docked at t = {t:.2f} s" + ("" if judged is None else f" ({judged.describe()})")
+                    result = LoopResult("docked", said, t, True, x.copy(), verdict=judged)
                     break
                 if k == n_max:  # the state after the last period: judged, not flown
                     recorder.distances.append(dist)
@@ -669,6 +686,8 @@ def run_closed_loop(
     except LoopEnding as e:
         result = LoopResult(e.reason, e.message, t_end)
     result.wall_time_s = time.perf_counter() - wall0
+    if verdict is not None and result.verdict is None:
+        result.verdict = verdict.closest
     guidance = getattr(autopilot, "guidance", None)
     if guidance is not None and guidance.camera:
         guidance.finish(result.t_end, result.reason)

@@ -17,7 +17,7 @@ import numpy as np
 
 from auvdock.vehicle.state import LIN, NX, POS, YAW
 
-__all__ = ["DockMotion", "TranslatingDock", "HeaveDock", "TrackedDock"]
+__all__ = ["DockMotion", "TranslatingDock", "HeaveDock", "ClockedDock", "TrackedDock"]
 
 
 class DockMotion(Protocol):
@@ -146,6 +146,41 @@ class HeaveDock(TranslatingDock):
         return np.stack([np.zeros_like(zd), np.zeros_like(zd), zd], axis=-1)
 
 
+class ClockedDock(TranslatingDock):
+    """A dock's motion on another clock: ``position(t) = dock.position(t + offset_s)``.
+
+    ``fly`` gives a dock whose motion the mission states (Assumption 2) on the vehicle's clock
+    (ArduSub's ``time_boot_ms``): the mission's phase is the dock's phase at the vehicle's boot, and
+    ``offset_s`` (s) is the vehicle's time at the mission's t = 0, set when the control loop starts.
+    A rehearsal's stand-in moves its dock on the same clock, so both see one dock.
+
+    Parameters
+    ----------
+    dock : HeaveDock
+        The motion on the other clock.
+    offset_s : float
+        The other clock's time at this one's t = 0, s.
+    """
+
+    def __init__(self, dock: HeaveDock, offset_s: float = 0.0) -> None:
+        self.dock = dock
+        self.offset_s = float(offset_s)
+        self.heading_rad = dock.heading_rad
+
+    @property
+    def position_ned_m(self) -> tuple[float, float, float]:
+        """The dock's anchor, NED m."""
+        return self.dock.position_ned_m
+
+    def position(self, t: float | np.ndarray) -> np.ndarray:
+        """Dock position (NED, m) at time(s) ``t`` (s) of this clock, shape (..., 3)."""
+        return self.dock.position(np.asarray(t, dtype=float) + self.offset_s)
+
+    def velocity(self, t: float | np.ndarray) -> np.ndarray:
+        """Dock velocity (NED, m/s) at time(s) ``t`` (s) of this clock, shape (..., 3)."""
+        return self.dock.velocity(np.asarray(t, dtype=float) + self.offset_s)
+
+
 class TrackedDock:
     """A heave dock whose mean position is re-anchored by measurements (``auvdock fly``).
 
@@ -161,7 +196,7 @@ class TrackedDock:
 
     Parameters
     ----------
-    model : HeaveDock
+    model : HeaveDock or ClockedDock
         The mission's dock motion (its mean position is the first guess).
     gain : float
         Weight of a new measurement without covariance, in (0, 1] (1: jump to it).
@@ -169,7 +204,9 @@ class TrackedDock:
         Random-walk intensity of the offset, m/sqrt(s) (Kalman mode).
     """
 
-    def __init__(self, model: HeaveDock, gain: float = 0.3, process_noise: float | None = None) -> None:
+    def __init__(
+        self, model: HeaveDock | ClockedDock, gain: float = 0.3, process_noise: float | None = None
+    ) -> None:
         if not 0.0 < gain <= 1.0:
             raise ValueError(f"gain must be in (0, 1], got {gain}")
         if process_noise is not None and process_noise <= 0:
