@@ -25,6 +25,7 @@ import auvdock.cli.fly as cli_fly
 from auvdock.cli import app
 from auvdock.config.mission import load_mission
 from auvdock.runtime.clock import SimClock
+from auvdock.standins.link_relay import Impairment, LinkRelay
 from auvdock.standins.vehicle_sim import VehicleSim
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -75,6 +76,7 @@ class Loopback:
     def __init__(self, monkeypatch: Any) -> None:
         self.clock = SimClock()
         self.sims: list[VehicleSim] = []
+        self.relays: list[LinkRelay] = []
         self.runner = CliRunner()
         monkeypatch.setattr(cli_fly, "clock", self.clock)
 
@@ -86,6 +88,24 @@ class Loopback:
         self.sims.append(sim)
         return sim, port
 
+    def impaired_vehicle(
+        self,
+        mission: Path | Any = TANK,
+        to_vehicle: Impairment | None = None,
+        to_fly: Impairment | None = None,
+        link_seed: int = 0,
+        **kwargs: Any,
+    ) -> tuple[VehicleSim, LinkRelay, int]:
+        """A started VehicleSim sending to a :class:`LinkRelay` (drawing from ``link_seed``) that relays
+        to fly's PORT, impairing each direction: (the simulator, the relay, PORT)."""
+        port = free_port()
+        relay = LinkRelay(port, to_vehicle, to_fly, seed=link_seed, clock=self.clock).start()
+        self.relays.append(relay)
+        m = mission if not isinstance(mission, str | Path) else load_mission(mission)
+        sim = VehicleSim(m, port=f"udpout:{HOST}:{relay.port}", clock=self.clock, **kwargs).start()
+        self.sims.append(sim)
+        return sim, relay, port
+
     def fly(self, port: int, out: Path, *extra: str, mission: Path = TANK) -> Any:
         """``auvdock fly MISSION --port udpin:127.0.0.1:PORT --out OUT EXTRA...`` (a CliRunner result)."""
         args = ["fly", str(mission), "--port", f"udpin:{HOST}:{port}", "--out", str(out), *extra]
@@ -95,6 +115,8 @@ class Loopback:
         try:
             for sim in self.sims:
                 sim.stop()
+            for relay in self.relays:
+                relay.stop()
         finally:
             self.clock.close()
 
