@@ -10,7 +10,9 @@ delays each datagram, each way, by ``--delay`` s plus a normal jitter of std ``-
 all in simulated time on one :class:`auvdock.runtime.clock.SimClock` (reproducible, at any load).
 Per run it prints how fly ended, the truth's closest approach (within the tolerance: a true docking),
 whether fly's verdict was right, and whether the truth left the geofence; then per controller how
-many seeds docked truly.  These are the figures of issue 29 (not timed tests).
+many seeds docked truly.  A flow-estimating controller flies the mission on the navigation filter
+(``estimation: filter``: fly refuses it on the autopilot's state).  These are the figures of issue 29
+(not timed tests).
 """
 
 from __future__ import annotations
@@ -48,6 +50,7 @@ def main() -> None:
     from auvdock.cli import app
     from auvdock.config.catalog import resolve
     from auvdock.config.mission import load_mission
+    from auvdock.controllers.registry import CONTROLLERS, split_controller
     from auvdock.fly.truth_check import check_flight
     from auvdock.results.store import read_run
     from auvdock.runtime.clock import SimClock
@@ -65,6 +68,9 @@ def main() -> None:
     print("controller  seed  fly ended                         truth closest  verdict  geofence")
     for controller in args.controllers.split(","):
         true_docks = 0
+        # a flow-estimating controller flies on the navigation filter on a vehicle (fly refuses truth)
+        needs_filter = CONTROLLERS[split_controller(controller)[0]].estimates_flow and m.estimation == "truth"
+        estimation = ["--estimation", "filter"] if needs_filter else []
         for seed in range(args.seeds):
             d = out / f"{controller}_{seed}"
             d.mkdir(parents=True)
@@ -84,7 +90,16 @@ def main() -> None:
                 truth_out=truth,
             ).start()
             try:
-                fly = ["fly", str(mission), "--port", f"udpin:127.0.0.1:{port}", "--out", str(d), "--arm"]
+                fly = [
+                    "fly",
+                    str(mission),
+                    *estimation,
+                    "--port",
+                    f"udpin:127.0.0.1:{port}",
+                    "--out",
+                    str(d),
+                    "--arm",
+                ]
                 res = CliRunner().invoke(app, [*fly, "--timeout", f"{args.timeout:g}", "-c", controller])
             finally:
                 sim.stop()

@@ -100,8 +100,9 @@ def test_fly_arm_docks_in_the_tank(loop, tmp_path) -> None:
     print(f"docked at {out['time_to_dock_s']:.2f} s of simulated time")
     assert "vehicle: Arming motors" in out["events_json"]
     assert out["closest_approach_m"] <= 0.05
-    # the state in which docking was declared is the file's last row, within the tolerance
-    assert r.distance_m[-1] == r.distance_m.min() <= 0.05
+    # the file's last row is the state after the verdict (judged on the step before's estimate, with its
+    # margin): within the tolerance, and within a period's motion (5 mm) of the closest
+    assert r.distance_m[-1] <= 0.05 and r.distance_m[-1] <= r.distance_m.min() + 0.005
     assert r.status_names[int(r.solver_status[-1])] == "no_step" and r.control_rows()[:-1].all()
     assert 15.0 < out["time_to_dock_s"] < 40.0  # simulated s (29.85 s with this mission and code)
     assert r.extras["channels_us"].shape[1] == 6

@@ -341,6 +341,31 @@ class FlySpec(Strict):
         "(each one flown with the bounded fallback: the last plan briefly, then neutral)",
     )
     geofence: GeofenceSpec = Field(default_factory=GeofenceSpec)
+    timesync_period_s: PosFloat = Field(
+        default=0.5,
+        description="send a MAVLink TIMESYNC request this often, s: the round trip and the vehicle's clock "
+        "(each reading's age) are measured on the answers (auvdock.fly.link_health)",
+    )
+    delay_compensation: bool = Field(
+        default=True,
+        description="readings stamped on the vehicle's clock, and the state predicted with the one model "
+        "over each reading's age plus the command's delivery delay (half the round trip), under the "
+        "commands already sent (auvdock.estimation.delay); false: readings stamped on arrival, none",
+    )
+    max_round_trip_s: PosFloat = Field(
+        default=0.8,
+        description="a median TIMESYNC round trip above this refuses to arm, and in flight holds "
+        "(neutral) and aborts after link_hold_s, s",
+    )
+    max_link_loss: Annotated[float, Field(ge=0.0, le=1.0)] = Field(
+        default=0.3,
+        description="a fraction of the vehicle's messages lost (MAVLink sequence gaps, last 1000) above "
+        "this refuses to arm, and in flight holds and aborts after link_hold_s",
+    )
+    link_hold_s: PosFloat = Field(
+        default=3.0,
+        description="in flight, a link beyond its limits this long aborts (held neutral meanwhile), s",
+    )
     telemetry_timeout_s: PosFloat = Field(
         default=60.0,
         description="wait this long for the telemetry the estimation needs (ArduSub's position "

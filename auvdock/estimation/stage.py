@@ -150,7 +150,7 @@ class TruthStage:
         if readings.state is None:
             raise ValueError("estimation: truth needs the state in the readings (Assumption 1)")
         est = Estimate(
-            readings.t,
+            readings.t if readings.state_t is None else readings.state_t,  # when the state was sampled
             np.asarray(readings.state, dtype=float).copy(),
             None,
             readings.flow_ned,

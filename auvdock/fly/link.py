@@ -415,6 +415,11 @@ class MavlinkLink:
         interval_us = -1 if rate_hz <= 0 else 1e6 / rate_hz
         self.send_command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, message_id, interval_us, 0)
 
+    def send_timesync(self, ts1_ns: int) -> None:
+        """A TIMESYNC request (``tc1`` 0, ``ts1`` our time in ns): ArduPilot answers at once with its own
+        time (:mod:`auvdock.fly.link_health`)."""
+        self.conn.mav.timesync_send(0, int(ts1_ns))
+
     def request_parameters(self, names: Any) -> None:
         """PARAM_REQUEST_READ for each name; the PARAM_VALUE answers come with the vehicle's
         messages (ArduPilot answers nothing for a name it does not have)."""

@@ -35,6 +35,8 @@ TELEMETRY_COLUMNS: dict[str, tuple[int, ...]] = {
     "imu_specific_force_m_s2": (3,),
     "armed": (),
     "vehicle_time_s": (),
+    "link_round_trip_s": (),
+    "link_loss": (),
 }
 
 
@@ -67,7 +69,8 @@ class MavlinkPlant:
         s._check_limits()
         s._refresh_rates()
         x = s._state()
-        if s._check_telemetry():  # stale: no control step on old readings
+        link = s.link_health.figures()
+        if s._check_telemetry() or not s._check_link(link):  # stale, or a bad link: neutral, no step
             return Observation(t, x, s.flow.velocity(x[POS], t), None)
         s._check_geofence()
         steer = True
@@ -80,8 +83,16 @@ class MavlinkPlant:
         v_c = s.flow.velocity(x[POS], t)
         telemetry = s._telemetry()
         self._armed = bool(telemetry["armed"])
+        delay = s.autopilot.delay
+        offset = None
+        state_t = None
+        if delay is not None:  # readings on the vehicle's clock; the command's delivery delay
+            delay.command_delay_s = link.one_way_s
+            offset = link.offset_s
+            state_t = s.telemetry.sample_time("LOCAL_POSITION_NED", t, s._now_us, offset)
         if steer:  # the readings are taken (marked read) only when the estimation stage runs
-            readings = Readings(t, s.telemetry.readings(t, s._now_us), x.copy(), None, v_c)
+            suite = s.telemetry.readings(t, s._now_us, offset)
+            readings = Readings(t, suite, x.copy(), None, v_c, state_t=state_t)
             specific_force = s.telemetry.specific_force
         else:
             readings = Readings(t)
@@ -91,6 +102,8 @@ class MavlinkPlant:
             "imu_specific_force_m_s2": specific_force,
             "armed": np.asarray(float(self._armed)),
             "vehicle_time_s": np.asarray(s.telemetry.vehicle_time_s()),
+            "link_round_trip_s": np.asarray(link.rtt_s),
+            "link_loss": np.asarray(link.loss),
             **camera_series,
         }
         return Observation(t, x, v_c, readings, steer, None, columns)

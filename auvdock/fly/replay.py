@@ -223,6 +223,9 @@ class ReplayLink:
     def send_command(self, command: int, *params: float) -> None:
         return None
 
+    def send_timesync(self, ts1_ns: int) -> None:
+        return None
+
     def send_arm(self, arm: bool) -> None:
         return None
 

@@ -18,8 +18,16 @@ from auvdock.vehicle.ardusub import MODES
 
 if TYPE_CHECKING:
     from auvdock.config.mission import FlySpec, Mission
+    from auvdock.fly.link_health import LinkFigures
 
-__all__ = ["preflight_problems", "takeover_reason", "limit_reason", "staleness", "FailedSolves"]
+__all__ = [
+    "preflight_problems",
+    "takeover_reason",
+    "limit_reason",
+    "link_problem",
+    "staleness",
+    "FailedSolves",
+]
 
 
 def preflight_problems(
@@ -28,11 +36,13 @@ def preflight_problems(
     measured: tuple[float, str] | None,
     p_dock: np.ndarray,
     battery_v: float | None,
+    link: LinkFigures | None = None,
 ) -> list[str]:
     """Why not to arm, on measured values (empty: arm): the parameter checks' ``refusals``, the
     pressure sensor's depth ``measured`` (m, and its source) inside the geofence and within
     ``fly.start_depth_tolerance_m`` of the mission's start depth, the dock (at ``p_dock`` (3,), m,
-    mission frame) inside the geofence, the battery (V) above its floor."""
+    mission frame) inside the geofence, the battery (V) above its floor, the ``link``'s round trip and
+    loss within their limits (:func:`link_problem`)."""
     fly = mission.fly
     fence = fly.geofence
     problems = list(refusals)
@@ -68,7 +78,27 @@ def preflight_problems(
         )
     elif floor > 0 and battery_v is not None and battery_v < floor:
         problems.append(f"battery {battery_v:.2f} V, below the floor {floor:g} V (fly.min_battery_v)")
+    if link is not None:
+        why = link_problem(fly, link)
+        if why is not None:
+            problems.append(why)
     return problems
+
+
+def link_problem(fly: FlySpec, link: LinkFigures) -> str | None:
+    """The link beyond its limits: the median TIMESYNC round trip above ``fly.max_round_trip_s``, or more
+    of the vehicle's messages lost than ``fly.max_link_loss``; None within them (or not yet measured)."""
+    if link.rtt_s > fly.max_round_trip_s:  # (NaN: not measured, compares False)
+        return (
+            f"link: round trip {1e3 * link.rtt_s:.0f} ms, above fly.max_round_trip_s "
+            f"{1e3 * fly.max_round_trip_s:.0f} ms"
+        )
+    if link.loss > fly.max_link_loss:
+        return (
+            f"link: {100 * link.loss:.1f} % of the vehicle's messages lost, above fly.max_link_loss "
+            f"{100 * fly.max_link_loss:g} %"
+        )
+    return None
 
 
 def takeover_reason(

@@ -75,13 +75,22 @@ from auvdock.config.mission import Mission, MissionError
 from auvdock.controllers.hold import DepthAttitudeHold
 from auvdock.controllers.registry import CONTROLLERS, split_controller
 from auvdock.controllers.status import STATUS_NAMES
+from auvdock.estimation.delay import DelayCompensation
 from auvdock.fly.camera import CAMERA_SERIES, CameraOpenError, CameraTracking
 from auvdock.fly.conformance import PARAMETER_GROUPS, check_parameters, describe, parameter_names
 from auvdock.fly.dock_source import LandingTargetSource
 from auvdock.fly.link import LinkError, MavlinkLink
+from auvdock.fly.link_health import LinkFigures, LinkHealth
 from auvdock.fly.plant import MavlinkPlant
 from auvdock.fly.record import FlyRecorder
-from auvdock.fly.safety import FailedSolves, limit_reason, preflight_problems, staleness, takeover_reason
+from auvdock.fly.safety import (
+    FailedSolves,
+    limit_reason,
+    link_problem,
+    preflight_problems,
+    staleness,
+    takeover_reason,
+)
 from auvdock.fly.telemetry import (
     PRESSURE_PARAMETERS,
     TELEMETRY_MESSAGES,
@@ -121,6 +130,8 @@ ARM_RETRY_S = 2.0
 MODE_TIMEOUT_S = 3.0
 #: Waits show their progress this often, s.
 PROGRESS_EVERY_S = 5.0
+#: While a stream has not come, its rate is requested again this often, s (a request lost on the link).
+RATE_RETRY_S = 2.0
 #: Streams requested besides TELEMETRY_MESSAGES: name -> rate (None: the control rate): the
 #: HEARTBEAT (armed bit, mode: a takeover is seen within a control period), SYS_STATUS
 #: (battery), RC_CHANNELS (the channels the vehicle uses: another station's joystick).
@@ -336,6 +347,11 @@ class FlySession:
         self.flow = mission.build_flow()
         self.autopilot = build_autopilot(mission, self.vehicle, self.dock, controller)
         self.actuators = ArduSubActuators(self.vehicle)  # what fly sends: ArduSub's channel path
+        self.link_health = LinkHealth()
+        self._next_timesync = -math.inf
+        self._link_bad_since: float | None = None
+        if mission.fly.delay_compensation:
+            self.autopilot.delay = DelayCompensation(self.vehicle)
         if isinstance(self.dock, TrackedDock) and mission.dock.source == "mavlink":
             self._landing = LandingTargetSource(self.dock, self.telemetry, mission.fly.stale_abort_s)
 
@@ -442,6 +458,14 @@ class FlySession:
         moment in the tlog (for replay)."""
         now_us, messages = self.link.drain(marker, value)
         self.telemetry.feed(messages)
+        self.link_health.feed(messages, getattr(self.link, "target_system", 1))
+        link = self.link_health.figures()
+        rtt = max(link.rtt_s, link.rtt_latest_s)  # (NaN before a TIMESYNC answer)
+        self.state.round_trip_us = int(rtt * 1e6) if math.isfinite(rtt) else 0
+        self.state.clock_offset_s = link.offset_s
+        if self.clock.now() >= self._next_timesync:  # the round trip and the vehicle's clock
+            self._next_timesync = self.clock.now() + self.mission.fly.timesync_period_s
+            self.link.send_timesync(LinkHealth.request_ns(now_us * 1e-6))
         for text in self.state.feed(messages, getattr(self.link, "target_system", 1)):
             self._event(text)
         return now_us
@@ -502,10 +526,16 @@ class FlySession:
         t0 = clock.now()
         deadline = t0 + limit
         next_note = t0 + PROGRESS_EVERY_S
+        next_ask = t0 + RATE_RETRY_S
         while clock.now() < deadline:
             self._send_neutral()
             now_us = self._take_telemetry("auvd_wait")
             missing = self._missing()
+            if missing and clock.now() >= next_ask:  # a rate request (or its ack) lost on the link: again
+                next_ask = clock.now() + RATE_RETRY_S
+                for name, rate in self._streams().items():
+                    if self.telemetry.latest(name)[0] is None:
+                        self.link.send_rate(getattr(mavutil.mavlink, f"MAVLINK_MSG_ID_{name}"), rate)
             if not missing and self.telemetry.age_s(now_us) < 0.5:
                 if clock.now() - t0 >= PROGRESS_EVERY_S:
                     self._event(f"telemetry complete after {clock.now() - t0:.0f} s")
@@ -567,7 +597,9 @@ class FlySession:
             self.telemetry.filtered_depth(window),
             np.asarray(self._model_dock.position(0.0), dtype=float),
             self.state.battery_v,
+            self.link_health.figures(),
         )
+        self._event(f"link: {self.link_health.figures().describe()}")
         if not problems:
             self._event("pre-flight checks pass")
             return
@@ -806,6 +838,24 @@ class FlySession:
         self._model_dock.offset_s = vehicle_now - t
         offset = vehicle_now - t
         self._event(f"dock: its motion on the vehicle's clock (mission t = 0 at vehicle time {offset:.3f} s)")
+
+    def _check_link(self, link: LinkFigures) -> bool:
+        """The link within its limits (:func:`auvdock.fly.safety.link_problem`)?  Beyond them: False (the
+        step holds neutral), an event when the hold starts and ends, and FlyAbortError once it has lasted
+        ``fly.link_hold_s``."""
+        why = link_problem(self.mission.fly, link)
+        now = self.clock.now()
+        if why is None:
+            if self._link_bad_since is not None:
+                self._event(f"link recovered ({link.describe()}): flying again")
+                self._link_bad_since = None
+            return True
+        if self._link_bad_since is None:
+            self._link_bad_since = now
+            self._event(f"{why}: holding (neutral) for up to {self.mission.fly.link_hold_s:g} s")
+        elif now - self._link_bad_since >= self.mission.fly.link_hold_s:
+            raise FlyAbortError(f"{why} for {now - self._link_bad_since:.1f} s (fly.link_hold_s)")
+        return False
 
     def _check_landing_target(self, t: float, x: np.ndarray) -> None:
         """dock.source: mavlink -- re-anchor the dock; abort without (or after losing) LANDING_TARGET."""

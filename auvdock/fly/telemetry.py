@@ -67,6 +67,8 @@ __all__ = [
     "MissionFrame",
     "TelemetrySensors",
     "geofence_violation",
+    "boot_time_s",
+    "age_s",
 ]
 
 #: The streams a session requests (MAV_CMD_SET_MESSAGE_INTERVAL) at ``fly.telemetry_rate_hz``.
@@ -136,6 +138,26 @@ class MissionFrame:
             f"({x0p[0]:.2f}, {x0p[1]:.2f}, {x0p[2]:.2f}) m, "
             f"{math.degrees(wrap_angle(psi_vehicle + self.dpsi)):.1f} deg"
         )
+
+
+def boot_time_s(msg: Any) -> float | None:
+    """A message's sample time on the vehicle's clock, s since its boot (``time_boot_ms``, or RAW_IMU's
+    ``time_usec``); None for a message without one (VFR_HUD)."""
+    ms = getattr(msg, "time_boot_ms", None)
+    if ms is not None:
+        return float(ms) * 1e-3
+    us = getattr(msg, "time_usec", None)
+    return None if us is None else float(us) * 1e-6
+
+
+def age_s(msg: Any, stamp_us: int, now_us: int, clock_offset_s: float | None) -> float:
+    """How old (s, >= 0) a message received at ``stamp_us`` is at ``now_us`` (both on the tlog's clock):
+    from its sample time on the vehicle's clock where the clocks' offset (vehicle minus tlog, s) is known
+    and the message carries its time, else from its arrival."""
+    boot = boot_time_s(msg)
+    if boot is not None and clock_offset_s is not None and math.isfinite(clock_offset_s):
+        return max(0.0, now_us * 1e-6 - (boot - clock_offset_s))
+    return max(0.0, (now_us - stamp_us) * 1e-6)
 
 
 def geofence_violation(fence: GeofenceSpec, depth_m: float, distance_m: float | None) -> str | None:
@@ -278,6 +300,14 @@ class TelemetrySensors:
                 return sum(1 for s, _ in history if newest - s <= window_s * 1e6)
         return 0
 
+    def sample_time(self, mtype: str, t: float, now_us: int, clock_offset_s: float | None) -> float:
+        """Mission time (s) at which the newest ``mtype`` was sampled, the step being at ``t`` (s) and
+        ``now_us`` (the tlog's clock): see :func:`age_s`; ``t`` before one arrives."""
+        msg, stamp = self.latest(mtype)
+        if msg is None or stamp is None:
+            return t
+        return t - age_s(msg, stamp, now_us, clock_offset_s)
+
     def vehicle_time_s(self) -> float:
         """The vehicle's own clock (s since its boot) of the newest ATTITUDE (``time_boot_ms``): the
         time a rehearsal's truth is recorded on (NaN before one)."""
@@ -351,13 +381,17 @@ class TelemetrySensors:
         return self._mission_frame().state(att, pos)
 
     # -- readings -----------------------------------------------------------------------------
-    def readings(self, t: float, now_us: int | None = None) -> list[Reading]:
+    def readings(
+        self, t: float, now_us: int | None = None, clock_offset_s: float | None = None
+    ) -> list[Reading]:
         """The readings of the messages new since the last call, at mission time ``t`` (s).
 
-        ``now_us``: the moment ``t`` on the tlog's clock (us); each reading is then stamped
-        with its arrival, ``t - (now_us - stamp) 1e-6`` (ArduSub sends a sample as it takes
-        it: on a 25 Hz stream read at 20 Hz a reading is up to 40 ms old, 12 mm of position
-        at 0.3 m/s).  None: every reading stamped ``t``.
+        ``now_us``: the moment ``t`` on the tlog's clock (us); each reading is then stamped with its
+        sample time (:meth:`age_s`): on the vehicle's clock where ``clock_offset_s`` (the vehicle's
+        clock minus the tlog's, s: :class:`auvdock.fly.link_health.LinkHealth`) is known, else its
+        arrival (ArduSub sends a sample as it takes it: on a 25 Hz stream read at 20 Hz a reading
+        is up to 40 ms old, 12 mm of position at 0.3 m/s; over a link, the link's delay more).
+        None: every reading stamped ``t``.
         Also sets :attr:`specific_force` (3,, m/s^2; NaN without a new IMU message)."""
         fresh, self._new = self._new, {}
         new = {k: m for k, (m, _) in fresh.items()}
@@ -365,7 +399,8 @@ class TelemetrySensors:
         def at(mtype: str) -> float:
             if now_us is None:
                 return t
-            return t - max(0, now_us - fresh[mtype][1]) * 1e-6
+            msg, stamp = fresh[mtype]
+            return t - age_s(msg, stamp, now_us, clock_offset_s)
 
         out: list[Reading] = []
         frame = self._mission_frame()

@@ -11,6 +11,7 @@ which is what lets ``auvdock replay`` reproduce a flight's decisions, and what t
 from __future__ import annotations
 
 import collections
+import math
 from typing import Any
 
 from auvdock.fly.link import PILOT_INPUT_TYPES
@@ -85,12 +86,18 @@ class VehicleState:
         self._foreign_rc = 0
         self.last_arm_text = ""
         self.sent: collections.deque[tuple[int, tuple[int, ...]]] = collections.deque()
+        #: The link's measured round trip (us; :class:`auvdock.fly.link_health.LinkHealth`): RC_CHANNELS
+        #: shows what was sent this much earlier and more, so the window reaches back further by twice it.
+        self.round_trip_us = 0
+        #: The vehicle's clock minus the tlog's (s, NaN: unknown): an RC_CHANNELS message is then judged
+        #: from when the vehicle sampled it (its time_boot_ms), not from when it arrived.
+        self.clock_offset_s = math.nan
         self._texts = StatustextJoiner()
 
     def sent_channels(self, now_us: int, channels: tuple[int, ...]) -> None:
         """Remember an override sent at ``now_us`` (us); forget those older than two windows."""
         self.sent.append((now_us, channels))
-        while len(self.sent) > 1 and self.sent[1][0] < now_us - 2 * SENT_WINDOW_US:
+        while len(self.sent) > 1 and self.sent[1][0] < now_us - 2 * self._window_us():
             self.sent.popleft()
 
     def feed(self, messages: list[tuple[int, Any]], vehicle_sysid: int) -> list[str]:
@@ -140,13 +147,21 @@ class VehicleState:
             self.battery_v += a * (v - self.battery_v)
         self._battery_stamp = stamp
 
+    def _window_us(self) -> int:
+        return SENT_WINDOW_US + 2 * max(0, int(self.round_trip_us))
+
     def _rc_channels(self, stamp: int, msg: Any) -> None:
-        """Count RC_CHANNELS whose channels 1..6 fly did not send within SENT_WINDOW_US: another
-        station (e.g. a joystick in QGroundControl or Cockpit with our system id) flying too."""
-        if not self.sent or stamp - self.sent[0][0] < SENT_WINDOW_US // 2:
+        """Count RC_CHANNELS whose channels 1..6 fly did not send within SENT_WINDOW_US (plus twice the
+        link's round trip): another station (e.g. a joystick in QGroundControl or Cockpit with our system
+        id) flying too."""
+        window = self._window_us()
+        boot_ms = getattr(msg, "time_boot_ms", None)
+        if boot_ms is not None and math.isfinite(self.clock_offset_s):  # when the vehicle showed them
+            stamp = min(stamp, int(round((boot_ms * 1e-3 - self.clock_offset_s) * 1e6)))
+        if not self.sent or stamp - self.sent[0][0] < window // 2:
             return  # too early to tell
         shown = tuple(int(getattr(msg, f"chan{i}_raw")) for i in range(1, 7))
-        recent = [ch for t, ch in self.sent if t >= stamp - SENT_WINDOW_US]
+        recent = [ch for t, ch in self.sent if stamp - window <= t <= stamp]
         if not recent:
             recent = [self.sent[-1][1]]
         if shown in recent:

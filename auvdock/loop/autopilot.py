@@ -10,6 +10,7 @@ model or MAVLink) are the closed loop's business (:mod:`auvdock.loop.closed_loop
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from typing import TYPE_CHECKING
 
@@ -33,6 +34,7 @@ from auvdock.sensing.settings import SensorSettings
 from auvdock.vehicle import Vehicle
 
 if TYPE_CHECKING:
+    from auvdock.estimation.delay import DelayCompensation
     from auvdock.estimation.estimate import Estimate
     from auvdock.world.dock import DockMotion
 
@@ -63,9 +65,15 @@ class Autopilot:
 
     Attributes
     ----------
+    delay : DelayCompensation or None
+        Delay-aware estimation (``fly``: :mod:`auvdock.estimation.delay`): the estimate predicted to
+        the instant the command acts, the estimation stage given the thrust that acted; None: none.
     last_estimate : Estimate or None
         The estimation stage's newest estimate (what a vehicle's docking verdict judges,
-        :mod:`auvdock.loop.verdict`); None before the first step.
+        :mod:`auvdock.loop.verdict`); None before the first step.  Its ``t`` is the instant it
+        estimates (with :attr:`delay`, its newest reading's sample time).
+    last_step_t : float or None
+        The step (s, mission clock) that made it.
     build_time_s : float
         Wall time spent building the controller (solver construction and, on first use
         of a problem, compiling it), s.  Kept out of a run's ``wall_time_s``.
@@ -101,7 +109,15 @@ class Autopilot:
         self.u_prev = np.zeros(vehicle.n_thrusters)
         self.u_applied = np.zeros(vehicle.n_thrusters)
         self.last_estimate: Estimate | None = None
+        self.delay: DelayCompensation | None = None
+        self._t_last: float | None = None
+        self._t_info: float | None = None
         self.build_time_s = time.perf_counter() - t0
+
+    @property
+    def last_step_t(self) -> float | None:
+        """The step instant (s) of :attr:`last_estimate` (None before the first step)."""
+        return self._t_last
 
     @property
     def extra_series(self) -> dict[str, tuple[int, ...]]:
@@ -110,6 +126,8 @@ class Autopilot:
         series.update(self.estimation.series_shapes)
         if self.guidance.records:
             series.update(GUIDANCE_SERIES)
+        if self.delay is not None:
+            series["estimate_lead_s"] = ()  # how far the estimate was predicted (its age + the command delay)
         return series
 
     @property
@@ -125,13 +143,20 @@ class Autopilot:
         self.u_prev = np.zeros(self.vehicle.n_thrusters)
         self.u_applied = np.zeros(self.vehicle.n_thrusters)
         self.last_estimate = None
+        self._t_last = None
+        self._t_info = None
+        if self.delay is not None:
+            self.delay.reset()
 
     def set_applied(self, thrust: np.ndarray) -> None:
         """The thrust (n,, N) the thrusters really produce over the coming period, where the
         actuator path changes the command (``fly``: ArduSub's six override channels, its mixer
         and the thrusters' dead band; zero while disarmed).  The estimation stage predicts with
-        it; by default it is the command (``sim``)."""
+        it; by default it is the command (``sim``).  With :attr:`delay` it is remembered as sent at
+        this step, to act the command delay later."""
         self.u_applied = np.asarray(thrust, dtype=float).copy()
+        if self.delay is not None and self._t_last is not None:
+            self.delay.history.sent(self._t_last, self.u_applied)
 
     def step(self, readings: Readings) -> ControlOutput:
         """One control step: estimate from the readings, solve, and return the thrust to hold
@@ -139,12 +164,33 @@ class Autopilot:
         :meth:`set_applied`)."""
         t0 = time.perf_counter()
         timing.begin()
+        u_acted = self.u_applied
+        delay = self.delay
+        t_step = readings.t
+        to_estimate = readings
+        if delay is not None:
+            # the stage estimates the instant of its newest reading (a link makes every one late); the
+            # forward prediction takes it on from there, under the thrust that acted meanwhile
+            sampled = [r.t for r in readings.suite]
+            if readings.state_t is not None:
+                sampled.append(readings.state_t)
+            t_info = min(t_step, max(sampled)) if sampled else t_step
+            if self._t_info is not None:
+                t_info = max(t_info, self._t_info)
+                u_acted = delay.acted(self._t_info, t_info)
+            self._t_info = t_info
+            to_estimate = dataclasses.replace(readings, t=t_info)
+        self._t_last = t_step
         if self.estimation.mode == "truth":  # the state as given: nothing to time
-            est, recorded = self.estimation.step(readings, self.u_applied)
+            est, recorded = self.estimation.step(to_estimate, u_acted)
         else:
             with timing.part("estimation"):
-                est, recorded = self.estimation.step(readings, self.u_applied)
+                est, recorded = self.estimation.step(to_estimate, u_acted)
         self.last_estimate = est
+        if delay is not None:
+            with timing.part("delay prediction"):
+                est = delay.forward(est, t_step)
+            recorded = {**recorded, "estimate_lead_s": np.asarray(delay.last_horizon_s)}
         steering = self.guidance.update(est)
         if self.guidance.records:
             recorded = {**recorded, **steering}

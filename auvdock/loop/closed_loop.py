@@ -597,7 +597,8 @@ def run_closed_loop(
                 judged = None
                 if verdict is not None and tolerance_m is not None:
                     est = getattr(autopilot, "last_estimate", None)
-                    fresh = est is not None and obs.t - est.t <= 2.0 * dt + 1e-9  # (not from before a hold)
+                    stepped = getattr(autopilot, "last_step_t", None)  # the step that made it (not its age)
+                    fresh = est is not None and stepped is not None and obs.t - stepped <= 2.0 * dt + 1e-9
                     judged = verdict.judge(est if fresh else None)
                     inside = judged is not None and judged.docked
                 else:

@@ -93,6 +93,9 @@ class Readings:
         The water velocity at the vehicle in {n}, m/s, as an exteroceptive sensor would give it
         (the paper's Assumption 3): the true flow in simulation, the mission's flow model on a
         vehicle.  Only the controllers whose definition reads it (Kinematic, Oracle) get it.
+    state_t : float or None
+        When ``state`` was sampled, s (mission clock): a vehicle's telemetry is older than the
+        instant that reads it (its age on the vehicle's clock, ``fly``); None: at ``t``.
     """
 
     t: float
@@ -100,3 +103,4 @@ class Readings:
     state: np.ndarray | None = None
     flow_sensing: FlowSensing | None = None
     flow_ned: np.ndarray | None = None
+    state_t: float | None = None

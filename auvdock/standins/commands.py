@@ -160,6 +160,7 @@ class CommandHandler:
             "MANUAL_CONTROL": self._on_manual_control,
             "PARAM_REQUEST_READ": self._on_param_request_read,
             "PARAM_REQUEST_LIST": self._on_param_request_list,
+            "TIMESYNC": self._on_timesync,
         }
 
     def channels(self, t: float) -> np.ndarray:
@@ -265,6 +266,13 @@ class CommandHandler:
         if not _for_this_vehicle(msg):
             return
         self.out.send_all(answer_list(self.params))
+
+    def _on_timesync(self, msg: mavlink2.MAVLink_message, t: float) -> None:
+        """A TIMESYNC request (``tc1`` 0) answered as ArduPilot does: ``tc1`` the vehicle's time of its
+        arrival (ns since boot, here ``t``), ``ts1`` echoed; an answer (``tc1`` not 0) is not ours."""
+        if int(msg.tc1) != 0:
+            return
+        self.out.send(M.MAVLink_timesync_message(int(round(t * 1e9)), int(msg.ts1)))
 
     # --- pilot input -------------------------------------------------------------------------
     def _pilot_input_allowed(self, msg: mavlink2.MAVLink_message, target: int) -> bool:

@@ -124,6 +124,23 @@ class Vehicle:
         self._flow_refs = getattr(self, "_flow_refs", []) + [flow]  # keep id() keys valid
         return fn
 
+    def stepper_in_current(self, substeps: int = 2) -> ca.Function:
+        """``(x[12], u[n], v_c[3], dt) -> x(t + dt)``: the truth model's RK4 (``substeps`` steps over
+        ``dt`` s, thrust held) in a uniform, steady current ``v_c`` (m/s in {n}).  What a prediction that
+        holds its current estimate integrates (:mod:`auvdock.estimation.delay`)."""
+        key = ("in_current", int(substeps))
+        if key in self._steppers:
+            return self._steppers[key]
+        x = ca.SX.sym("x", NX)
+        u = ca.SX.sym("u", self.n_thrusters)
+        v_c = ca.SX.sym("v_c", 3)
+        h = ca.SX.sym("dt")
+        m = self.model
+        x_next = rk4(lambda z: m.dynamics(z, u, v_c, ca.DM.zeros(3)), x, h, int(substeps))
+        fn = ca.Function("step_in_current", [x, u, v_c, h], [x_next], ["x", "u", "v_c", "dt"], ["x_next"])
+        self._steppers[key] = fn
+        return fn
+
     def sea_stage(self, flow: FlowField | None = None) -> ca.Function:
         """The truth's state derivative in a sea, for an integrator that evaluates the waves itself.
 

@@ -1,0 +1,160 @@
+"""Delay-aware estimation: the state predicted to the instant the next command acts.
+
+Over a link, the controller's picture is late twice.  A reading is ``age`` old when the step that
+uses it runs (its sample time on the vehicle's clock against the step's), and the command the step
+sends acts on the vehicle ``d`` later (its delivery delay).  A controller that plans from the
+reading's state plans for a vehicle that has moved on since, and the first ``d`` of its plan never
+happens: at 100 ms each way the vehicle is flown 0.2 s behind itself, and a loop tuned for none
+oscillates (issue 29: Oracle left the geofence on ``tank_positioned``).
+
+:class:`DelayCompensation` closes that gap with the one model (:meth:`auvdock.vehicle.Vehicle.
+stepper_in_current`): from the estimate's instant (the newest reading's sample time, or the filter's
+step time) it integrates to ``t_step + d``, under the thrust that really acts over that interval:
+the commands already sent and not yet acting, each from its send time plus ``d`` (the
+:class:`CommandHistory`), in the estimated current (held).  The controller then plans from the
+predicted state at ``t_step + d``, where its first command starts to act (the estimate's ``t`` says
+so); the FSE controllers' flow filter reads the flow sensing of the predicted state (its input over
+each step is then the command sent the step before, which is what acts between two predicted
+instants).  The estimation stage is also given the thrust that acted over the last period (the command sent
+``d`` before it), not the one just computed.
+
+With ``d = 0`` and an estimate at the step's instant (``sim``) nothing changes.
+"""
+
+from __future__ import annotations
+
+import bisect
+import dataclasses
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from auvdock.sensing.readings import FlowSensing
+from auvdock.vehicle.geometry import rotation_zyx
+from auvdock.vehicle.state import ANG, ETA, LIN, NX
+
+if TYPE_CHECKING:
+    from auvdock.estimation.estimate import Estimate
+    from auvdock.vehicle import Vehicle
+
+__all__ = ["CommandHistory", "DelayCompensation"]
+
+#: The longest integration step of the forward prediction, s (RK4 substeps inside it).
+MAX_STEP_S = 0.025
+#: How long the history of commands reaches back, s.
+HISTORY_S = 5.0
+
+
+class CommandHistory:
+    """The thrust sent at each step (mission clock, s; thrust (n,), N), and what acts when.
+
+    A command sent at ``t_j`` acts on the vehicle from ``t_j + d`` until the next one does (zero-order
+    hold); before the first, nothing acts.
+    """
+
+    def __init__(self, n_thrusters: int) -> None:
+        self.n = int(n_thrusters)
+        self._t: list[float] = []
+        self._u: list[np.ndarray] = []
+
+    def clear(self) -> None:
+        self._t.clear()
+        self._u.clear()
+
+    def sent(self, t: float, thrust: np.ndarray) -> None:
+        """The command sent at ``t`` (s): a later one at the same instant replaces it."""
+        t = float(t)
+        if self._t and t <= self._t[-1] + 1e-12:
+            if abs(t - self._t[-1]) <= 1e-12:
+                self._u[-1] = np.asarray(thrust, dtype=float).copy()
+            return
+        self._t.append(t)
+        self._u.append(np.asarray(thrust, dtype=float).copy())
+        while len(self._t) > 2 and self._t[1] < t - HISTORY_S:
+            del self._t[0]
+            del self._u[0]
+
+    def acting(self, t: float, delay_s: float) -> np.ndarray:
+        """The thrust acting on the vehicle at ``t`` (s) with commands ``delay_s`` late."""
+        i = bisect.bisect_right(self._t, t - delay_s + 1e-12) - 1
+        return np.zeros(self.n) if i < 0 else self._u[i]
+
+    def segments(self, t0: float, t1: float, delay_s: float) -> list[tuple[float, float, np.ndarray]]:
+        """``[(ta, tb, thrust)]`` covering ``[t0, t1]`` (s): the thrust acting over each piece."""
+        if t1 <= t0:
+            return []
+        cuts = [t0] + [tj + delay_s for tj in self._t if t0 < tj + delay_s < t1] + [t1]
+        return [(a, b, self.acting(a, delay_s)) for a, b in zip(cuts[:-1], cuts[1:], strict=True) if b > a]
+
+
+class DelayCompensation:
+    """The forward prediction of a delay-aware estimation stage (see the module docstring).
+
+    Parameters
+    ----------
+    vehicle : Vehicle
+        The one model.
+
+    Attributes
+    ----------
+    command_delay_s : float
+        The expected delivery delay of a command, s (``fly``: half the link's measured round trip,
+        :class:`auvdock.fly.link_health.LinkHealth`; 0 in simulation).
+    history : CommandHistory
+        The commands sent.
+    last_horizon_s : float
+        How far the last estimate was predicted, s (its age plus the command delay).
+    """
+
+    def __init__(self, vehicle: Vehicle) -> None:
+        self._step = vehicle.stepper_in_current()
+        self.history = CommandHistory(vehicle.n_thrusters)
+        self.command_delay_s = 0.0
+        self.last_horizon_s = 0.0
+
+    def reset(self) -> None:
+        self.history.clear()
+        self.last_horizon_s = 0.0
+
+    def acted(self, t0: float, t1: float) -> np.ndarray:
+        """The thrust that acted over ``[t0, t1]`` (s), time-weighted (n,, N): what the estimation stage
+        predicts the last period with."""
+        pieces = self.history.segments(t0, t1, self.command_delay_s)
+        if not pieces:
+            return self.history.acting(t1, self.command_delay_s)
+        total = sum((b - a) * u for a, b, u in pieces)
+        return np.asarray(total, dtype=float) / (t1 - t0)
+
+    def predict(self, x: np.ndarray, t0: float, t1: float, current_ned: np.ndarray | None) -> np.ndarray:
+        """The state (12,) at ``t1`` from ``x`` at ``t0`` (s) under the thrust acting in between, in the
+        current ``current_ned`` (3,, m/s in {n}; None: still water), held."""
+        v_c = np.zeros(3) if current_ned is None else np.asarray(current_ned, dtype=float)
+        z = np.asarray(x, dtype=float).reshape(NX)
+        for a, b, u in self.history.segments(t0, t1, self.command_delay_s):
+            n = max(1, int(np.ceil((b - a) / MAX_STEP_S - 1e-9)))
+            h = (b - a) / n
+            for _ in range(n):
+                z = np.asarray(self._step(z, u, v_c, h)).reshape(NX)
+        return z
+
+    def forward(self, est: Estimate, t_step: float) -> Estimate:
+        """``est`` predicted to ``t_step + command_delay_s`` (its state and ``t``); the same estimate
+        when that is its own instant."""
+        t1 = float(t_step) + self.command_delay_s
+        self.last_horizon_s = max(0.0, t1 - est.t)
+        if t1 <= est.t + 1e-9:
+            return est
+        current = est.current_ned if est.current_ned is not None else est.flow_ned
+        x = self.predict(est.state, est.t, t1, current)
+        sensing = est.flow_sensing
+        if sensing is not None:  # the FSE flow filter's input (paper IV.A), of the predicted state
+            R = rotation_zyx(float(x[3]), float(x[4]), float(x[5]))
+            v_c = np.zeros(3) if current is None else np.asarray(current, dtype=float)
+            sensing = FlowSensing(
+                pose=x[ETA].copy(),
+                gyro_rad_s=x[ANG].copy(),
+                relative_velocity_m_s=x[LIN] - R.T @ v_c,
+                depth_rate_m_s=float(R[2] @ x[LIN]),
+                accel_m_s2=sensing.accel_m_s2,
+            )
+        return dataclasses.replace(est, t=t1, state=x, flow_sensing=sensing)

@@ -1,0 +1,120 @@
+"""The link's health, measured: round trip, the vehicle's clock, loss (``fly``).
+
+* **Round trip and the vehicle's clock** (MAVLink TIMESYNC): fly sends ``TIMESYNC(tc1=0, ts1=its time
+  in ns)`` every ``fly.timesync_period_s``; ArduPilot answers at once with ``tc1`` = its own time since
+  boot (ns) and ``ts1`` echoed.  On the answer's arrival at ``t_rx``: round trip ``rtt = t_rx - ts1``,
+  and the vehicle's clock minus ours ``offset = tc1 - (ts1 + t_rx) / 2`` (the answer taken as made half
+  way).  Jitter is filtered as NTP does: of the last :data:`WINDOW` answers, the offset of the one with
+  the shortest round trip (the least queued), and the median round trip.
+* **Loss**: MAVLink's sequence number (one byte per sending component, unwrapped) counts every message
+  the vehicle sent: of the last :data:`LOSS_WINDOW` received, the distinct numbers against the span they
+  cover (a late or duplicated message is not a lost one).
+* **Reading ages**: a message stamped with the vehicle's ``time_boot_ms`` was sampled at
+  ``time_boot - offset`` on our clock; its age when used is ``now - that``.
+
+The expected delivery delay of a command is half the median round trip (the link taken as symmetric).
+Times are on the session's clock (the tlog's, s since the epoch), so a replay of the tlog measures the
+same figures from the same messages.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+__all__ = ["LinkHealth", "LinkFigures", "WINDOW", "LOSS_WINDOW"]
+
+#: TIMESYNC answers the offset and round trip are filtered over.
+WINDOW = 16
+#: Messages the loss rate is counted over (about 10 s of a session's streams).
+LOSS_WINDOW = 1000
+
+
+@dataclass(frozen=True)
+class LinkFigures:
+    """The link's health at one instant (NaN where not measured yet): the median round trip (s), the
+    vehicle's clock minus the session's (s), the fraction of the vehicle's messages lost, answers counted,
+    and the newest round trip (s: a sudden change shows here first)."""
+
+    rtt_s: float
+    offset_s: float
+    loss: float
+    answers: int
+    rtt_latest_s: float = math.nan
+
+    @property
+    def one_way_s(self) -> float:
+        """Expected delivery delay of a command, s: half the round trip (0 before one is measured)."""
+        return 0.0 if not math.isfinite(self.rtt_s) else 0.5 * self.rtt_s
+
+    def describe(self) -> str:
+        """``"round trip 203 ms, 4.8 % of the vehicle's messages lost"``."""
+        if math.isfinite(self.rtt_s):
+            rtt = f"round trip {1e3 * self.rtt_s:.0f} ms"
+        else:
+            rtt = "round trip not measured (no TIMESYNC answer)"
+        if not math.isfinite(self.loss):
+            return rtt
+        return f"{rtt}, {100 * self.loss:.1f} % of the vehicle's messages lost"
+
+
+class LinkHealth:
+    """TIMESYNC round trips, the vehicle's clock and message loss (see the module docstring)."""
+
+    def __init__(self) -> None:
+        self._sync: deque[tuple[float, float]] = deque(maxlen=WINDOW)  # (rtt s, offset s)
+        self._last: dict[tuple[int, int], int] = {}  # per sender, the newest unwrapped sequence number
+        self._seen: dict[tuple[int, int], deque[int]] = {}  # per sender, the unwrapped numbers received
+
+    @staticmethod
+    def request_ns(now_s: float) -> int:
+        """The ``ts1`` of a TIMESYNC request sent at ``now_s`` (s): our time in ns."""
+        return int(round(now_s * 1e9))
+
+    def feed(self, messages: list[tuple[int, Any]], vehicle_sysid: int) -> None:
+        """Take the vehicle's messages received since the last call (``(stamp us, message)``)."""
+        for stamp, msg in messages:
+            if msg.get_srcSystem() != vehicle_sysid:
+                continue
+            key = (msg.get_srcSystem(), msg.get_srcComponent())
+            seq = int(msg.get_seq())
+            last = self._last.get(key)
+            if last is None:
+                n = seq
+            else:  # unwrapped: the nearest number with this byte (late or duplicated ones fall behind)
+                step = (seq - last) % 256
+                n = last + step if step < 128 else last - (256 - step)
+            self._last[key] = max(n, last) if last is not None else n
+            self._seen.setdefault(key, deque(maxlen=LOSS_WINDOW)).append(n)
+            if msg.get_type() == "TIMESYNC" and int(msg.tc1) != 0:
+                rx = stamp * 1e-6
+                ts1 = int(msg.ts1) * 1e-9
+                rtt = rx - ts1
+                if -1e-6 <= rtt < 60.0:  # an answer to one of ours (not another station's)
+                    self._sync.append((max(0.0, rtt), int(msg.tc1) * 1e-9 - 0.5 * (ts1 + rx)))
+
+    def figures(self) -> LinkFigures:
+        """The health now."""
+        if self._sync:
+            rtts = np.array([r for r, _ in self._sync])
+            offset = self._sync[int(np.argmin(rtts))][1]
+            rtt = float(np.median(rtts))
+            latest = float(rtts[-1])
+        else:
+            rtt = offset = latest = math.nan
+        got = sent = 0
+        for seen in self._seen.values():
+            if len(seen) > 1:
+                got += len(set(seen))
+                sent += max(seen) - min(seen) + 1
+        loss = 1.0 - got / sent if sent > 0 else math.nan
+        return LinkFigures(rtt, float(offset), loss, len(self._sync), latest)
+
+    def sample_time(self, time_boot_s: float, figures: LinkFigures) -> float:
+        """When (s, the session's clock) a message stamped ``time_boot_s`` on the vehicle's clock was
+        sampled; NaN before the offset is measured."""
+        return time_boot_s - figures.offset_s
