@@ -130,6 +130,9 @@ def test_the_link_health_from_timesync_and_sequence_numbers() -> None:
     assert f.rtt_s == pytest.approx(0.24, abs=1e-5)  # median of 0.20, 0.26, 0.32, 0.22, 0.24
     assert f.offset_s == pytest.approx(offset, abs=1e-5)
     assert f.one_way_s == pytest.approx(0.12, abs=1e-5)
+    rtts = np.array([0.20, 0.26, 0.32, 0.22, 0.24])
+    assert f.jitter_s == pytest.approx(np.std(rtts) / np.sqrt(2), abs=1e-5)  # each way independent
+    assert f.hold_back_s == pytest.approx(2 * f.jitter_s)
     lh2 = LinkHealth()
     seqs = [n % 256 for n in range(200, 500) if n % 10 != 3]
     seqs[50], seqs[51] = seqs[51], seqs[50]  # late
@@ -143,12 +146,13 @@ def test_the_link_health_from_timesync_and_sequence_numbers() -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("seed", [0, 1])
-def test_fly_docks_through_100_ms_with_jitter_and_loss(loop, tmp_path, seed) -> None:
+@pytest.mark.parametrize(("controller", "seed"), [("oracle", 0), ("oracle", 1), ("sequential", 1)])
+def test_fly_docks_through_100_ms_with_jitter_and_loss(loop, tmp_path, controller, seed) -> None:
     """The first figure's link: 100 ms +- 30 ms and 5 % lost each way.  With the forward prediction Oracle
-    docks tank_positioned and the truth comes within the tolerance; the round trip is measured (about
-    0.2 s) and recorded with every row, and each estimate was predicted over its age plus the command's
-    delay (about 0.1 s + the reading's age)."""
+    (on the autopilot's state) and Sequential FSE-MPC (on the navigation filter, its readings held back
+    for the jitter) dock tank_positioned and the truth comes within the tolerance; the round trip is
+    measured (about 0.2 s) and recorded with every row, and each estimate was predicted over its age plus
+    the command's delay (about 0.1 s + the reading's age)."""
     from auvdock.fly.truth_check import check_flight
 
     imp = Impairment(delay_s=0.1, jitter_s=0.03, loss=0.05)
@@ -156,7 +160,8 @@ def test_fly_docks_through_100_ms_with_jitter_and_loss(loop, tmp_path, seed) -> 
     sim, relay, port = loop.impaired_vehicle(
         to_vehicle=imp, to_fly=imp, link_seed=seed, seed=seed, noise=True, hold_start=True, truth_out=truth
     )
-    res = loop.fly(port, tmp_path, "--arm", "--timeout", "60")
+    extra = ["-c", controller] + ([] if controller == "oracle" else ["--estimation", "filter"])
+    res = loop.fly(port, tmp_path, "--arm", "--timeout", "60", *extra)
     sim.stop()
     assert res.exit_code == 0, res.output + res.stderr
     flight = next(tmp_path.glob("*_fly_*.h5"))
@@ -168,7 +173,8 @@ def test_fly_docks_through_100_ms_with_jitter_and_loss(loop, tmp_path, seed) -> 
     lead = r.extras["estimate_lead_s"][r.control_rows()]
     assert 0.1 < float(np.median(lead)) < 0.3
     assert 0.0 < float(np.nanmax(r.extras["link_loss"])) < 0.15
-    print(f"seed {seed}: {res.output.strip().splitlines()[-1]}; truth closest {c.truth_closest_m:.3f} m")
+    last = res.output.strip().splitlines()[-1]
+    print(f"{controller} seed {seed}: {last}; truth closest {c.truth_closest_m:.3f} m")
 
 
 def test_a_link_beyond_its_round_trip_limit_refuses_to_arm(loop, tmp_path) -> None:

@@ -166,16 +166,16 @@ def test_a_rehearsal_writes_its_truth_and_the_flight_is_scored_on_it(loop, tmp_p
     out = CliRunner().invoke(app, ["truth-check", str(flight), str(truth)])
     assert c.verdict_right and c.truth_distance_at_verdict_m <= c.tolerance_m
     assert out.exit_code == 0 and "the verdict is right" in out.output, out.output
-    assert "(on the position telemetry: " in res.output and "95 % bound" in res.output
+    assert "(on the position telemetry, the mean of 5: " in res.output and "95 % bound" in res.output
     outcome = read_run(flight).outcome()
-    assert outcome["verdict_basis"] == "position telemetry"
+    assert outcome["verdict_basis"] == "position telemetry, the mean of 5"
     assert outcome["verdict_bound_m"] <= c.tolerance_m
-    # the bound is the distance plus 2.7955 x the position's stated 1 cm
-    assert outcome["verdict_bound_m"] - outcome["verdict_distance_m"] == pytest.approx(0.027955, abs=1e-6)
+    # the margin: 2.7955 x (the stated 1 cm over sqrt(5) and the frame's error), at least the first
+    assert outcome["verdict_bound_m"] - outcome["verdict_distance_m"] > 0.027955 / np.sqrt(5)
     if noise:
         assert c.telemetry_error_rms_m > 0.01
     else:
-        assert c.telemetry_error_max_m < 1e-3
+        assert c.telemetry_error_max_m < 2e-3  # position and attitude sent within a physics step (10 ms)
     with h5py.File(flight, "r+") as h5:  # a tolerance the truth was not within: the verdict is WRONG
         for node in (h5, *h5.values()):
             if "tolerance_m" in node.attrs:

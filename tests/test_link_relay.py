@@ -95,7 +95,7 @@ def test_bad_impairments_are_one_clear_error() -> None:
         Impairment(delay_s=-0.1)
 
 
-@pytest.mark.parametrize("seed", [0, 1])
+@pytest.mark.parametrize("seed", [0])
 def test_fly_docks_through_a_lightly_impaired_link(loop, tmp_path, seed) -> None:
     """20 ms +- 5 ms each way, 2 % lost, 2 % reordered, 2 % duplicated: Oracle docks tank_positioned."""
     imp = Impairment(delay_s=0.02, jitter_s=0.005, loss=0.02, reorder=0.02, duplicate=0.02)

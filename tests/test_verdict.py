@@ -77,3 +77,36 @@ def test_a_clocked_dock_is_the_dock_on_the_other_clock() -> None:
     _, p, v = d.trajectory(0.5, 0.05, 4)
     assert np.allclose(p, DOCK.position(2.44 + 0.05 * np.arange(5)))
     assert d.position_ned_m == DOCK.position_ned_m and d.heading_rad == DOCK.heading_rad
+
+
+def test_the_frame_s_own_error_widens_the_bound_where_the_frame_places_the_vehicle() -> None:
+    """fly's mission frame is the mean of n positions and m headings: at a dock 2 m ahead its heading
+    error (2 deg / sqrt(m)) moves the vehicle sideways by 2 m times that; the origin's error is the
+    position noise / sqrt(n).  The verdict adds it, except on a position relative to a camera-fixed dock."""
+    from pymavlink.dialects.v20 import ardupilotmega as mav2
+
+    from auvdock.config.mission import load_mission
+    from auvdock.fly.telemetry import TelemetrySensors
+
+    m = load_mission("missions/tank_positioned.yaml")
+    tel = TelemetrySensors(m.sensors, "truth")
+    msgs = []
+    for i in range(50):
+        stamp = i * 40_000
+        msgs.append((stamp, mav2.MAVLink_attitude_message(i * 40, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)))
+        msgs.append((stamp, mav2.MAVLink_local_position_ned_message(i * 40, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0)))
+    tel.feed(msgs)
+    tel.set_frame(m.start_state(), window_s=2.0)
+    n_pos, n_att = tel.frame_readings
+    assert (n_pos, n_att) == (50, 50)
+    cov = tel.frame_cov(np.array([2.0, 0.0, 1.0]))
+    yaw_std = m.sensors.ahrs.yaw_std_rad
+    pos_std = m.sensors.position.figures()[2]
+    assert cov[1, 1] == pytest.approx(pos_std**2 / 50 + (2.0 * yaw_std) ** 2 / 50)
+    assert cov[0, 0] == pytest.approx(pos_std**2 / 50) and cov[0, 1] == pytest.approx(0.0)
+    v = MarginVerdict(0.05, DOCK, 0.01, frame_cov=tel.frame_cov)
+    plain = MarginVerdict(0.05, DOCK, 0.01)
+    est = _estimate(1.0, np.array([0.01, 0.0, 0.0]), None)
+    assert v.judge(est).bound_m > plain.judge(est).bound_m
+    fixed = _estimate(1.0, np.array([0.01, 0.0, 0.0]), np.eye(3) * 0.004**2)
+    assert v.judge(fixed).bound_m == pytest.approx(plain.judge(fixed).bound_m)

@@ -100,6 +100,10 @@ class DelayCompensation:
     command_delay_s : float
         The expected delivery delay of a command, s (``fly``: half the link's measured round trip,
         :class:`auvdock.fly.link_health.LinkHealth`; 0 in simulation).
+    hold_back_s : float
+        Readings are held back this long behind the newest (s; ``fly``: twice the link's one-way jitter),
+        so that those the jitter delays arrive before the stage passes their time: the filter then takes
+        them in order (a reading behind its time would be applied late).
     history : CommandHistory
         The commands sent.
     last_horizon_s : float
@@ -110,6 +114,7 @@ class DelayCompensation:
         self._step = vehicle.stepper_in_current()
         self.history = CommandHistory(vehicle.n_thrusters)
         self.command_delay_s = 0.0
+        self.hold_back_s = 0.0
         self.last_horizon_s = 0.0
 
     def reset(self) -> None:

@@ -38,13 +38,21 @@ LOSS_WINDOW = 1000
 class LinkFigures:
     """The link's health at one instant (NaN where not measured yet): the median round trip (s), the
     vehicle's clock minus the session's (s), the fraction of the vehicle's messages lost, answers counted,
-    and the newest round trip (s: a sudden change shows here first)."""
+    the newest round trip (s: a sudden change shows here first), and the one-way jitter (s: the round
+    trips' std over sqrt 2, each way taken as independent)."""
 
     rtt_s: float
     offset_s: float
     loss: float
     answers: int
     rtt_latest_s: float = math.nan
+    jitter_s: float = math.nan
+
+    @property
+    def hold_back_s(self) -> float:
+        """How long a reading is held back so that those jitter delays behind it arrive first (s): twice the
+        one-way jitter (0 before it is measured)."""
+        return 0.0 if not math.isfinite(self.jitter_s) else 2.0 * self.jitter_s
 
     @property
     def one_way_s(self) -> float:
@@ -104,15 +112,16 @@ class LinkHealth:
             offset = self._sync[int(np.argmin(rtts))][1]
             rtt = float(np.median(rtts))
             latest = float(rtts[-1])
+            jitter = float(np.std(rtts)) / math.sqrt(2.0) if rtts.size >= 4 else math.nan
         else:
-            rtt = offset = latest = math.nan
+            rtt = offset = latest = jitter = math.nan
         got = sent = 0
         for seen in self._seen.values():
             if len(seen) > 1:
                 got += len(set(seen))
                 sent += max(seen) - min(seen) + 1
         loss = 1.0 - got / sent if sent > 0 else math.nan
-        return LinkFigures(rtt, float(offset), loss, len(self._sync), latest)
+        return LinkFigures(rtt, float(offset), loss, len(self._sync), latest, jitter)
 
     def sample_time(self, time_boot_s: float, figures: LinkFigures) -> float:
         """When (s, the session's clock) a message stamped ``time_boot_s`` on the vehicle's clock was

@@ -732,7 +732,10 @@ class FlySession:
             on_event=self._event,
             control_guard=quiet,
             verdict=MarginVerdict(
-                self.mission.docking.tolerance_m, self.dock, self.mission.sensors.position.figures()[2]
+                self.mission.docking.tolerance_m,
+                self.dock,
+                self.mission.sensors.position.figures()[2],
+                frame_cov=self.telemetry.frame_cov,
             ),
         )
         return _Ending(

@@ -29,7 +29,7 @@ from auvdock.estimation.stage import EstimationStage, TruthStage, build_estimati
 from auvdock.loop.guidance import GUIDANCE_SERIES, Guidance, GuidanceSettings
 from auvdock.runtime import timing
 from auvdock.runtime.interrupts import SigintDeferred
-from auvdock.sensing.readings import Readings
+from auvdock.sensing.readings import Reading, Readings
 from auvdock.sensing.settings import SensorSettings
 from auvdock.vehicle import Vehicle
 
@@ -112,6 +112,7 @@ class Autopilot:
         self.delay: DelayCompensation | None = None
         self._t_last: float | None = None
         self._t_info: float | None = None
+        self._held: list[Reading] = []
         self.build_time_s = time.perf_counter() - t0
 
     @property
@@ -145,6 +146,7 @@ class Autopilot:
         self.last_estimate = None
         self._t_last = None
         self._t_info = None
+        self._held = []
         if self.delay is not None:
             self.delay.reset()
 
@@ -171,15 +173,20 @@ class Autopilot:
         if delay is not None:
             # the stage estimates the instant of its newest reading (a link makes every one late); the
             # forward prediction takes it on from there, under the thrust that acted meanwhile
-            sampled = [r.t for r in readings.suite]
+            suite = self._held + list(readings.suite)
+            sampled = [r.t for r in suite]
             if readings.state_t is not None:
                 sampled.append(readings.state_t)
             t_info = min(t_step, max(sampled)) if sampled else t_step
+            if suite and delay.hold_back_s > 0:  # wait for the readings the jitter delays
+                t_info -= delay.hold_back_s
             if self._t_info is not None:
                 t_info = max(t_info, self._t_info)
                 u_acted = delay.acted(self._t_info, t_info)
             self._t_info = t_info
-            to_estimate = dataclasses.replace(readings, t=t_info)
+            self._held = [r for r in suite if r.t > t_info + 1e-9]
+            due = [r for r in suite if r.t <= t_info + 1e-9]
+            to_estimate = dataclasses.replace(readings, t=t_info, suite=due)
         self._t_last = t_step
         if self.estimation.mode == "truth":  # the state as given: nothing to time
             est, recorded = self.estimation.step(to_estimate, u_acted)
