@@ -67,7 +67,7 @@ def main() -> None:
     )
     print("controller  seed  fly ended                         truth closest  verdict  geofence")
     for controller in args.controllers.split(","):
-        true_docks = 0
+        true_docks = fly_docks = wrong = left_fence = 0
         # a flow-estimating controller flies on the navigation filter on a vehicle (fly refuses truth)
         needs_filter = CONTROLLERS[split_controller(controller)[0]].estimates_flow and m.estimation == "truth"
         estimation = ["--estimation", "filter"] if needs_filter else []
@@ -124,13 +124,17 @@ def main() -> None:
             )
             docked_truly = math.isfinite(c.truth_closest_m) and c.truth_closest_m <= c.tolerance_m
             true_docks += int(docked_truly)
+            fly_docks += int(c.flight_docked)
+            wrong += int(not c.verdict_right)
+            left_fence += int(left)
             ended = (res.output.strip().splitlines() or ["?"])[-1][:33]
             print(
                 f"{controller:10s} {seed:5d}  {ended:33s} {c.truth_closest_m:9.3f} m  "
                 f"{'right' if c.verdict_right else 'WRONG':7s}  {'LEFT' if left else 'inside'}"
             )
         print(
-            f"{controller}: truly docked (truth within the tolerance) in {true_docks} of {args.seeds} seeds"
+            f"{controller}: truly docked (truth within the tolerance) in {true_docks} of {args.seeds} seeds; "
+            f"fly declared docked in {fly_docks}; verdict wrong in {wrong}; left the geofence in {left_fence}"
         )
 
 

@@ -179,16 +179,23 @@ def _interrupted() -> _Ending:
     return _Ending("interrupted", f"interrupted ({interrupt_name()})")
 
 
-def _verdict_outcome(verdict: Verdict | None) -> dict[str, Any]:
+def _verdict_outcome(verdict: Verdict | None, vehicle_clock_offset_s: float) -> dict[str, Any]:
     """The outcome figures of the docking verdict (:mod:`auvdock.loop.verdict`): its basis, the
     estimated distance and its 95 % bound when docked was declared, else the smallest bound reached
-    (the closest it came to a verdict)."""
+    (the closest it came to a verdict), and the instant judged on the vehicle's clock (s: mission time
+    plus ``vehicle_clock_offset_s``, where a rehearsal's truth is scored)."""
     if verdict is None:
-        return {"verdict_basis": "", "verdict_distance_m": math.nan, "verdict_bound_m": math.nan}
+        return {
+            "verdict_basis": "",
+            "verdict_distance_m": math.nan,
+            "verdict_bound_m": math.nan,
+            "verdict_vehicle_time_s": math.nan,
+        }
     return {
         "verdict_basis": verdict.basis,
         "verdict_distance_m": verdict.distance_m,
         "verdict_bound_m": verdict.bound_m,
+        "verdict_vehicle_time_s": verdict.t + vehicle_clock_offset_s,
     }
 
 
@@ -832,12 +839,18 @@ class FlySession:
 
     def _set_dock_clock(self, t: float) -> None:
         """The mission's dock motion runs on the vehicle's clock (:class:`auvdock.world.dock.ClockedDock`):
-        mission time ``t`` (s) is now; the vehicle's time now is its newest ATTITUDE's ``time_boot_ms``
-        plus that message's age on arrival."""
+        mission time ``t`` (s) is now; the vehicle's time now is the session's plus the clocks' offset
+        measured with TIMESYNC (:class:`auvdock.fly.link_health.LinkHealth`), or without an answer the
+        newest ATTITUDE's ``time_boot_ms`` plus that message's age on arrival (its delivery delay not
+        counted: over a 250 ms link the dock would be a quarter second out of phase)."""
         att, stamp = self.telemetry.latest("ATTITUDE")
-        if att is None or stamp is None:
+        offset = self.link_health.figures().offset_s
+        if math.isfinite(offset):  # the vehicle's clock now, from TIMESYNC (not the newest ATTITUDE's)
+            vehicle_now = self._now_us * 1e-6 + offset
+        elif att is not None and stamp is not None:
+            vehicle_now = float(att.time_boot_ms) * 1e-3 + max(0, self._now_us - stamp) * 1e-6
+        else:
             return
-        vehicle_now = float(att.time_boot_ms) * 1e-3 + max(0, self._now_us - stamp) * 1e-6
         self._model_dock.offset_s = vehicle_now - t
         offset = vehicle_now - t
         self._event(f"dock: its motion on the vehicle's clock (mission t = 0 at vehicle time {offset:.3f} s)")
@@ -938,7 +951,7 @@ class FlySession:
                     "handed_over_armed": self._handed_over_armed,
                     "solver_stderr_lines": self._stderr.lines,
                     "vehicle_parameters_json": json.dumps(self.state.params, sort_keys=True),
-                    **_verdict_outcome(ending.verdict),
+                    **_verdict_outcome(ending.verdict, self._model_dock.offset_s),
                 },
             )
             rec.finish(outcome)

@@ -7,8 +7,9 @@ truth at each of the flight's rows (linearly between its rows, never across an a
 reports, from the two files alone:
 
 * the flight's verdict (docked or not, how it ended) and the truth's distance from the vehicle to the
-  docking point at the instant it was given: **right** (docked, and truly within the mission's
-  tolerance; or not docked, and truly not) or **wrong**;
+  docking point at the instant it judged (``verdict_vehicle_time_s``: the estimate's, which over a
+  delayed link is older than the step that declared it; else the flight's last row): **right**
+  (docked, and truly within the mission's tolerance; or not docked, and truly not) or **wrong**;
 * the true closest approach while the flight ran (m), and the true speed relative to the dock at the
   verdict (m/s);
 * the error over time of what fly judged on (its ``state`` rows: the vehicle's telemetry) and of what
@@ -113,7 +114,6 @@ def check_flight(flight: str | Path, truth: str | Path) -> TruthCheck:
     armed = np.asarray(tr.extras["armed"], dtype=float)
     x_true = _at(tr.time_s, armed, tr.state, t)
     d_true = _at(tr.time_s, armed, tr.distance_m, t)
-    dock_v = _at(tr.time_s, armed, tr.dock_velocity_m_s, t)
     tel_err = np.linalg.norm(f.state[ok, 0:3] - x_true[:, 0:3], axis=1)
     est = f.extras.get("estimated_state")
     if est is not None:
@@ -124,17 +124,22 @@ def check_flight(flight: str | Path, truth: str | Path) -> TruthCheck:
     out = f.outcome()
     tol = float(f.attrs.get("tolerance_m", math.nan))
     docked = bool(out.get("docked", False))
+    # the verdict's instant: the estimate it judged (fly records it on the vehicle's clock), else the last row
+    t_verdict = float(out.get("verdict_vehicle_time_s", math.nan)) if docked else math.nan
+    if not (math.isfinite(t_verdict) and tr.time_s[0] <= t_verdict <= tr.time_s[-1]):
+        t_verdict = float(t[-1])
+    at = np.array([t_verdict])
+    xe = _at(tr.time_s, armed, tr.state, at)[0]
     # the truth's speed relative to the dock at the verdict: the body velocity rotated into {n}
-    xe = x_true[-1]
     v_ned = rotation_zyx(float(xe[3]), float(xe[4]), float(xe[5])) @ xe[6:9]
-    speed = float(np.linalg.norm(v_ned - dock_v[-1]))
-    d_end = float(d_true[-1])
+    speed = float(np.linalg.norm(v_ned - _at(tr.time_s, armed, tr.dock_velocity_m_s, at)[0]))
+    d_end = float(_at(tr.time_s, armed, tr.distance_m, at)[0])
     right = (d_end <= tol) if docked else not (d_end <= tol)
     return TruthCheck(
         flight_reason=str(out.get("reason", "")),
         flight_docked=docked,
         tolerance_m=tol,
-        verdict_time_s=float(t[-1]),
+        verdict_time_s=t_verdict,
         truth_distance_at_verdict_m=d_end,
         verdict_right=bool(right),
         truth_closest_m=float(np.min(d_true)),

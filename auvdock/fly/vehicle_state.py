@@ -155,13 +155,14 @@ class VehicleState:
         link's round trip): another station (e.g. a joystick in QGroundControl or Cockpit with our system
         id) flying too."""
         window = self._window_us()
+        since = stamp - window
         boot_ms = getattr(msg, "time_boot_ms", None)
-        if boot_ms is not None and math.isfinite(self.clock_offset_s):  # when the vehicle showed them
-            stamp = min(stamp, int(round((boot_ms * 1e-3 - self.clock_offset_s) * 1e6)))
+        if boot_ms is not None and math.isfinite(self.clock_offset_s):  # from when the vehicle showed them
+            since = min(since, int(round((boot_ms * 1e-3 - self.clock_offset_s) * 1e6)) - window)
         if not self.sent or stamp - self.sent[0][0] < window // 2:
             return  # too early to tell
         shown = tuple(int(getattr(msg, f"chan{i}_raw")) for i in range(1, 7))
-        recent = [ch for t, ch in self.sent if stamp - window <= t <= stamp]
+        recent = [ch for t, ch in self.sent if since <= t <= stamp]  # (only ever wider than on arrival)
         if not recent:
             recent = [self.sent[-1][1]]
         if shown in recent:
