@@ -177,7 +177,10 @@ class Autopilot:
             sampled = [r.t for r in suite]
             if readings.state_t is not None:
                 sampled.append(readings.state_t)
-            t_info = min(t_step, max(sampled)) if sampled else t_step
+            if sampled:
+                t_info = min(t_step, max(sampled))
+            else:  # nothing new (a burst of losses): the estimate stays where its readings are
+                t_info = t_step if self._t_info is None else self._t_info
             if suite and delay.hold_back_s > 0:  # wait for the readings the jitter delays
                 t_info -= delay.hold_back_s
             if self._t_info is not None:
