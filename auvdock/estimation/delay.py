@@ -142,14 +142,18 @@ class DelayCompensation:
                 z = np.asarray(self._step(z, u, v_c, h)).reshape(NX)
         return z
 
-    def forward(self, est: Estimate, t_step: float) -> Estimate:
+    def forward(self, est: Estimate, t_step: float, reads_flow: bool = False) -> Estimate:
         """``est`` predicted to ``t_step + command_delay_s`` (its state and ``t``); the same estimate
-        when that is its own instant."""
+        when that is its own instant.  The current held is the stage's own estimate; without one, the
+        exteroceptive flow (``est.flow_ned``) only for a controller whose definition reads it
+        (``reads_flow``: Oracle, Kinematic), else still water."""
         t1 = float(t_step) + self.command_delay_s
         self.last_horizon_s = max(0.0, t1 - est.t)
         if t1 <= est.t + 1e-9:
             return est
-        current = est.current_ned if est.current_ned is not None else est.flow_ned
+        current = est.current_ned
+        if current is None and reads_flow:
+            current = est.flow_ned
         x = self.predict(est.state, est.t, t1, current)
         sensing = est.flow_sensing
         if sensing is not None:  # the FSE flow filter's input (paper IV.A), of the predicted state

@@ -77,6 +77,7 @@ class LinkHealth:
         self._sync: deque[tuple[float, float]] = deque(maxlen=WINDOW)  # (rtt s, offset s)
         self._last: dict[tuple[int, int], int] = {}  # per sender, the newest unwrapped sequence number
         self._seen: dict[tuple[int, int], deque[int]] = {}  # per sender, the unwrapped numbers received
+        self._figures: LinkFigures | None = None  # computed once per feed
 
     @staticmethod
     def request_ns(now_s: float) -> int:
@@ -85,6 +86,8 @@ class LinkHealth:
 
     def feed(self, messages: list[tuple[int, Any]], vehicle_sysid: int) -> None:
         """Take the vehicle's messages received since the last call (``(stamp us, message)``)."""
+        if messages:
+            self._figures = None
         for stamp, msg in messages:
             if msg.get_srcSystem() != vehicle_sysid:
                 continue
@@ -106,7 +109,12 @@ class LinkHealth:
                     self._sync.append((max(0.0, rtt), int(msg.tc1) * 1e-9 - 0.5 * (ts1 + rx)))
 
     def figures(self) -> LinkFigures:
-        """The health now."""
+        """The health now (computed once per :meth:`feed` that brought messages)."""
+        if self._figures is None:
+            self._figures = self._compute()
+        return self._figures
+
+    def _compute(self) -> LinkFigures:
         if self._sync:
             rtts = np.array([r for r, _ in self._sync])
             offset = self._sync[int(np.argmin(rtts))][1]

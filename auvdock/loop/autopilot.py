@@ -199,7 +199,7 @@ class Autopilot:
         self.last_estimate = est
         if delay is not None:
             with timing.part("delay prediction"):
-                est = delay.forward(est, t_step)
+                est = delay.forward(est, t_step, self.reads_true_flow)
             recorded = {**recorded, "estimate_lead_s": np.asarray(delay.last_horizon_s)}
         steering = self.guidance.update(est)
         if self.guidance.records:
