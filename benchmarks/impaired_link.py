@@ -9,8 +9,10 @@ delays each datagram, each way, by ``--delay`` s plus a normal jitter of std ``-
 ``--loss`` of them (its draws from the seed), and ``auvdock fly --arm`` flies the mission through it,
 all in simulated time on one :class:`auvdock.runtime.clock.SimClock` (reproducible, at any load).
 Per run it prints how fly ended, the truth's closest approach (within the tolerance: a true docking),
-whether fly's verdict was right, and whether the truth left the geofence; then per controller how
-many seeds docked truly.  A flow-estimating controller flies the mission on the navigation filter
+whether fly's verdict was right (WRONG: docked declared with the truth beyond the tolerance at the
+instant judged, or a run ended undocked with the truth within it), and whether the truth left the
+geofence; then per controller how many seeds docked truly, and the two kinds of wrong verdict.
+A flow-estimating controller flies the mission on the navigation filter
 (``estimation: filter``: fly refuses it on the autopilot's state).  These are the figures of issue 29
 (not timed tests).
 """
@@ -67,7 +69,7 @@ def main() -> None:
     )
     print("controller  seed  fly ended                         truth closest  verdict  geofence")
     for controller in args.controllers.split(","):
-        true_docks = fly_docks = wrong = left_fence = 0
+        true_docks = fly_docks = false_docks = missed = left_fence = 0
         # a flow-estimating controller flies on the navigation filter on a vehicle (fly refuses truth)
         needs_filter = CONTROLLERS[split_controller(controller)[0]].estimates_flow and m.estimation == "truth"
         estimation = ["--estimation", "filter"] if needs_filter else []
@@ -125,7 +127,8 @@ def main() -> None:
             docked_truly = math.isfinite(c.truth_closest_m) and c.truth_closest_m <= c.tolerance_m
             true_docks += int(docked_truly)
             fly_docks += int(c.flight_docked)
-            wrong += int(not c.verdict_right)
+            false_docks += int(c.flight_docked and not c.verdict_right)  # docked said, the truth beyond
+            missed += int(not c.flight_docked and not c.verdict_right)  # ended undocked within the tolerance
             left_fence += int(left)
             ended = (res.output.strip().splitlines() or ["?"])[-1][:33]
             print(
@@ -134,7 +137,9 @@ def main() -> None:
             )
         print(
             f"{controller}: truly docked (truth within the tolerance) in {true_docks} of {args.seeds} seeds; "
-            f"fly declared docked in {fly_docks}; verdict wrong in {wrong}; left the geofence in {left_fence}"
+            f"fly declared docked in {fly_docks}; wrongly (the truth beyond the tolerance then) in "
+            f"{false_docks}; ended undocked within the tolerance in {missed}; "
+            f"left the geofence in {left_fence}"
         )
 
 

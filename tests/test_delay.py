@@ -100,7 +100,10 @@ def test_what_acts_when_on_the_history() -> None:
     comp = DelayCompensation(load_vehicle())
     comp.history = h
     comp.command_delay_s = 0.1
-    assert comp.acted(0.1, 0.2)[0] == pytest.approx(1.5)  # half the period each
+    acted = comp.acted(0.1, 0.2)
+    assert acted.mean()[0] == pytest.approx(1.5)  # half the period each
+    assert acted.cuts(0.1, 0.2) == [pytest.approx(0.15)]  # where the navigation filter ends a prediction
+    assert (acted.at(0.12)[0], acted.at(0.2)[0]) == (1.0, 2.0)  # the accelerometer at 0.2 reads under 2
 
 
 def _msg(mtype: str, seq: int, **fields):

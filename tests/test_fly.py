@@ -101,8 +101,9 @@ def test_fly_arm_docks_in_the_tank(loop, tmp_path) -> None:
     assert "vehicle: Arming motors" in out["events_json"]
     assert out["closest_approach_m"] <= 0.05
     # the file's last row is the state after the verdict (judged on the step before's estimate, with its
-    # margin): within the tolerance, and within a period's motion (5 mm) of the closest
-    assert r.distance_m[-1] <= 0.05 and r.distance_m[-1] <= r.distance_m.min() + 0.005
+    # margin, on the mean of five readings: 0.2 s): within the tolerance, and within that window's
+    # relative motion (1 cm at 5 cm/s) of the closest
+    assert r.distance_m[-1] <= 0.05 and r.distance_m[-1] <= r.distance_m.min() + 0.01
     assert r.status_names[int(r.solver_status[-1])] == "no_step" and r.control_rows()[:-1].all()
     assert 15.0 < out["time_to_dock_s"] < 40.0  # simulated s (29.85 s with this mission and code)
     assert r.extras["channels_us"].shape[1] == 6
@@ -162,7 +163,7 @@ def test_a_rehearsal_writes_its_truth_and_the_flight_is_scored_on_it(loop, tmp_p
     flight = next(tmp_path.glob("tank_positioned_*.h5"))
     c = check_flight(flight, truth)
     assert c.flight_docked and c.rows > 100
-    assert c.truth_closest_m <= c.truth_distance_at_verdict_m + 1e-12
+    assert c.truth_closest_m <= c.truth_distance_at_verdict_m + 1e-6  # (the verdict between two rows)
     out = CliRunner().invoke(app, ["truth-check", str(flight), str(truth)])
     assert c.verdict_right and c.truth_distance_at_verdict_m <= c.tolerance_m
     assert out.exit_code == 0 and "the verdict is right" in out.output, out.output

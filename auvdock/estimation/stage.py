@@ -43,6 +43,7 @@ from typing import TYPE_CHECKING, Protocol
 import casadi as ca
 import numpy as np
 
+from auvdock.estimation.delay import ThrustSchedule, mean_thrust
 from auvdock.estimation.estimate import Estimate
 from auvdock.estimation.navigation_filter import NavEstimate, NavigationFilter, NavigationSettings, WaveModel
 from auvdock.sensing.readings import FlowSensing, Readings
@@ -122,7 +123,9 @@ class EstimationStage(Protocol):
         """Whether the controllers should still hold zero thrust at time ``t`` (s)."""
         ...
 
-    def step(self, readings: Readings, u_applied: np.ndarray) -> tuple[Estimate, dict[str, np.ndarray]]:
+    def step(
+        self, readings: Readings, u_applied: np.ndarray | ThrustSchedule
+    ) -> tuple[Estimate, dict[str, np.ndarray]]:
         """The estimate from one instant's readings and the thrust (n,, N) really applied over
         the last period; and the series to record."""
         ...
@@ -145,7 +148,9 @@ class TruthStage:
         """Never: the state is known from the first instant."""
         return False
 
-    def step(self, readings: Readings, u_applied: np.ndarray) -> tuple[Estimate, dict[str, np.ndarray]]:
+    def step(
+        self, readings: Readings, u_applied: np.ndarray | ThrustSchedule
+    ) -> tuple[Estimate, dict[str, np.ndarray]]:
         """The state and the flow sensing the readings carry; nothing to record."""
         if readings.state is None:
             raise ValueError("estimation: truth needs the state in the readings (Assumption 1)")
@@ -252,7 +257,9 @@ class NavigationStage:
         has run for less than ``navigation.settle_s`` since the first reading."""
         return self._t0 is not None and t < self._t0 + self.settle_s
 
-    def step(self, readings: Readings, u_applied: np.ndarray) -> tuple[Estimate, dict[str, np.ndarray]]:
+    def step(
+        self, readings: Readings, u_applied: np.ndarray | ThrustSchedule
+    ) -> tuple[Estimate, dict[str, np.ndarray]]:
         """The controllers' estimate from this instant's readings (``readings.suite``) and the
         thrust (n,, N) really applied over the last period; and the series to record."""
         if self._t0 is None:
@@ -275,7 +282,7 @@ class NavigationStage:
         accel = None
         if self._prev is not None:
             x_prev, flow_prev = self._prev
-            pred = np.asarray(self._predict(x_prev, u_applied, flow_prev)).ravel()
+            pred = np.asarray(self._predict(x_prev, mean_thrust(u_applied), flow_prev)).ravel()
             accel = (pred[LIN] - x_prev[LIN]) / self.dt
         self._prev = (x.copy(), flow_ned.copy())
         sensing = FlowSensing(

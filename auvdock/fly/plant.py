@@ -89,6 +89,8 @@ class MavlinkPlant:
         if delay is not None:  # readings on the vehicle's clock; the command's delivery delay
             delay.command_delay_s = link.one_way_s
             delay.hold_back_s = link.hold_back_s
+            delay.jitter_s, delay.loss = link.jitter_s, link.loss
+            s._follow_vehicle_clock(link.offset_s)
             offset = link.offset_s
             state_t = s.telemetry.sample_time("LOCAL_POSITION_NED", t, s._now_us, offset)
         if steer:  # the readings are taken (marked read) only when the estimation stage runs

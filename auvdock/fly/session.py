@@ -344,6 +344,7 @@ class FlySession:
             )
         # the mission's dock motion on the vehicle's clock (its offset set as the control loop starts)
         self._model_dock = ClockedDock(mission.dock.build())
+        self._mission_zero_s: float | None = None  # mission t = 0 on the session's clock (s), once set
         self.dock: ClockedDock | TrackedDock = self._model_dock
         self._landing: LandingTargetSource | None = None
         if mission.dock.source == "mavlink":
@@ -844,6 +845,7 @@ class FlySession:
         newest ATTITUDE's ``time_boot_ms`` plus that message's age on arrival (its delivery delay not
         counted: over a 250 ms link the dock would be a quarter second out of phase)."""
         att, stamp = self.telemetry.latest("ATTITUDE")
+        self._mission_zero_s = self._now_us * 1e-6 - t  # mission t = 0 on the session's clock
         offset = self.link_health.figures().offset_s
         if math.isfinite(offset):  # the vehicle's clock now, from TIMESYNC (not the newest ATTITUDE's)
             vehicle_now = self._now_us * 1e-6 + offset
@@ -854,6 +856,15 @@ class FlySession:
         self._model_dock.offset_s = vehicle_now - t
         offset = vehicle_now - t
         self._event(f"dock: its motion on the vehicle's clock (mission t = 0 at vehicle time {offset:.3f} s)")
+
+    def _follow_vehicle_clock(self, offset_s: float) -> None:
+        """Keep the dock's clock on the link's estimate of the vehicle's clock (``offset_s``, s: the
+        vehicle's minus the session's, :class:`auvdock.fly.link_health.LinkFigures`): the readings are
+        stamped with the same estimate, so when a less-queued TIMESYNC answer refines it, readings and
+        dock move together (the relative position, which the verdict judges, does not jump)."""
+        zero = self._mission_zero_s
+        if zero is not None and math.isfinite(offset_s):
+            self._model_dock.offset_s = zero + offset_s
 
     def _check_link(self, link: LinkFigures) -> bool:
         """The link within its limits (:func:`auvdock.fly.safety.link_problem`)?  Beyond them: False (the

@@ -34,7 +34,7 @@ from auvdock.sensing.settings import SensorSettings
 from auvdock.vehicle import Vehicle
 
 if TYPE_CHECKING:
-    from auvdock.estimation.delay import DelayCompensation
+    from auvdock.estimation.delay import DelayCompensation, ThrustSchedule
     from auvdock.estimation.estimate import Estimate
     from auvdock.world.dock import DockMotion
 
@@ -166,7 +166,7 @@ class Autopilot:
         :meth:`set_applied`)."""
         t0 = time.perf_counter()
         timing.begin()
-        u_acted = self.u_applied
+        u_acted: np.ndarray | ThrustSchedule = self.u_applied
         delay = self.delay
         t_step = readings.t
         to_estimate = readings
