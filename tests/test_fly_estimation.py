@@ -23,7 +23,7 @@ from auvdock.config.mission import load_mission
 from auvdock.fly import FlySession
 from auvdock.fly.link import MavlinkLink
 from auvdock.fly.replay import ReplayError, replay
-from auvdock.fly.telemetry import TelemetrySensors
+from auvdock.fly.telemetry import TelemetrySensors, frame_turns
 from auvdock.fly.units import MG_M_S2, MRAD_S, pressure_hpa
 from auvdock.results.store import read_run
 from auvdock.sensing import measurements as ms
@@ -106,6 +106,34 @@ def test_telemetry_readings_are_the_measurement_definitions_in_the_mission_frame
     assert tel.readings(2.55) == [] and np.all(np.isnan(tel.specific_force))
     # ages of the required telemetry, at a later stamp
     assert tel.age_s(110_000) == pytest.approx(0.1)
+
+
+def test_positions_fixed_in_an_outside_frame_are_moved_not_turned_by_the_compass() -> None:
+    """fly.frame_heading auto: a DVL's dead-reckoned positions turn with the vehicle's heading (its
+    compass error is in them), an outside fix's (acoustic, camera, motion capture: SITL's GPS) do not, so
+    the frame only moves them; a compass 0.4 rad off then leaves the positions where the fix put them,
+    the heading reads as the compass says, and the frame's heading adds nothing to its covariance."""
+    assert frame_turns("auto", "dvl_dead_reckoning") and frame_turns("auto", "none")
+    assert not any(frame_turns("auto", s) for s in ("acoustic", "camera", "motion_capture"))
+    assert frame_turns("vehicle", "camera") and not frame_turns("source", "dvl_dead_reckoning")
+    m = load_mission(TANK)
+    vehicle = m.build_vehicle()
+    x0_v = np.array([5.0, -2.0, 1.3, 0.0, 0.0, 0.4, 0, 0, 0, 0, 0, 0])
+    f0 = ms.measure("accel", vehicle, np.r_[x0_v[:5], 0.0, x0_v[6:]])
+    covs = {}
+    for turn in (True, False):
+        tel = TelemetrySensors(m.sensors, "truth")
+        tel.feed([(1000 * i, msg) for i, msg in enumerate(_msgs(x0_v, f0, 1.3))])
+        frame = tel.set_frame(m.start_state(), turn=turn)
+        assert frame.dpsi == pytest.approx(-0.4 if turn else 0.0)
+        x_v = x0_v.copy()
+        x_v[0] += 1.0  # 1 m north of the start in the fix's frame
+        tel.feed([(10_000, msg) for msg in _msgs(x_v, f0, 1.3)])
+        expected = m.start_state()[0:3] + (Rz(-0.4) if turn else np.eye(3)) @ np.array([1.0, 0.0, 0.0])
+        np.testing.assert_allclose(tel.state()[0:3], expected, atol=1e-6)
+        assert tel.state()[5] == pytest.approx(0.0 if turn else 0.4)
+        covs[turn] = tel.frame_cov(m.start_state()[0:3] + np.array([2.0, 0.0, 0.0]))
+    assert covs[True][1, 1] > covs[False][1, 1] and covs[False][0, 1] == 0.0
 
 
 def test_truth_mode_needs_only_the_pose_and_skips_position_without_a_source() -> None:

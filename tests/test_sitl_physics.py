@@ -541,6 +541,23 @@ def test_the_truth_is_written_every_50_ms_of_physics_time_and_readable_when_stop
     assert np.allclose(t.distance_m, np.linalg.norm(t.state[:, 0:3] - t.dock_position_m, axis=1))
 
 
+def test_the_truth_measures_to_the_dock_the_camera_sees(serve, tmp_path) -> None:
+    """With the camera's dock displaced (camera.synthetic.dock_offset_m) the truth file's dock is the
+    displaced one, the dock the vehicle can find: measured to the mission's charted dock, truth-check
+    called a docking 0.03 m from the rendered dock wrong, 0.217 m away."""
+    from auvdock.results.store import read_run
+
+    truth = tmp_path / "truth.h5"
+    offset = [0.0, 0.2, 0.0]
+    physics, peer = serve("sitl_camera", hold_until_thrust=False, dock_offset_ned_m=offset, truth_out=truth)
+    for k in range(RATE // 4):
+        peer.exchange(frame(k))
+    physics.stop()
+    t = read_run(truth)
+    charted = physics.mission.build_dock().position(t.time_s)
+    np.testing.assert_allclose(t.dock_position_m, charted + np.array([0.0, 0.2, 0.0]), atol=1e-9)
+
+
 # --- (g) the camera through the real video path ---------------------------------------------------
 
 

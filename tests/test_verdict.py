@@ -110,3 +110,20 @@ def test_the_frame_s_own_error_widens_the_bound_where_the_frame_places_the_vehic
     assert v.judge(est).bound_m > plain.judge(est).bound_m
     fixed = _estimate(1.0, np.array([0.01, 0.0, 0.0]), np.eye(3) * 0.004**2)
     assert v.judge(fixed).bound_m == pytest.approx(plain.judge(fixed).bound_m)
+
+
+def test_a_slowly_varying_position_error_is_not_averaged_away() -> None:
+    """The mean of five readings divides the white noise's variance by five, not a wandering error's:
+    1 cm white and 1.5 cm of wander (ArduSub SITL's EKF on its GPS) bound the mean at
+    2.7955 sqrt(0.01^2 / 5 + 0.015^2) beyond its distance, where white alone gives 2.7955 * 0.01 / sqrt 5."""
+    white = MarginVerdict(0.05, DOCK, position_std_m=0.01)
+    wander = MarginVerdict(0.05, DOCK, position_std_m=0.01, position_bias_std_m=0.015)
+    for i in range(5):  # five distinct readings at rest on the dock's motion, 0.04 s apart
+        t = 1.0 + 0.04 * i
+        est = _estimate(t, np.array([0.0, 0.01 + 0.001 * i, 0.0]), None)
+        est.state[6:9] = 0.0
+        a, b = white.judge(est), wander.judge(est)
+    assert a is not None and b is not None and a.basis == "position telemetry, the mean of 5"
+    assert b.bound_m - b.distance_m == pytest.approx(BOUND_95_3D * np.sqrt(0.01**2 / 5 + 0.015**2))
+    assert a.bound_m - a.distance_m == pytest.approx(BOUND_95_3D * 0.01 / np.sqrt(5))
+    assert a.docked and not b.docked

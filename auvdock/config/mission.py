@@ -379,6 +379,14 @@ class FlySpec(Strict):
         description="refuse to arm unless the pressure sensor's depth is this close to the mission's "
         "start depth, m",
     )
+    frame_heading: Literal["auto", "vehicle", "source"] = Field(
+        default="auto",
+        description="how the mission frame is turned: vehicle (the mission is drawn about the vehicle's "
+        "start pose: the frame turns by its measured heading, and a compass error turns every position), "
+        "source (the mission is drawn in the position source's frame: positions are moved, not turned), "
+        "auto (vehicle for dead-reckoned positions, sensors.position.source none or dvl_dead_reckoning; "
+        "source for an outside fix: acoustic, camera, motion_capture)",
+    )
     preflight_window_s: PosFloat = Field(
         default=2.0,
         description="the mission frame (the vehicle's start pose) is set on the mean of the position and "

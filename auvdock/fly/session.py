@@ -95,6 +95,7 @@ from auvdock.fly.telemetry import (
     PRESSURE_PARAMETERS,
     TELEMETRY_MESSAGES,
     TelemetrySensors,
+    frame_turns,
     geofence_violation,
 )
 from auvdock.fly.vehicle_state import VehicleState
@@ -575,9 +576,11 @@ class FlySession:
         self._take_telemetry("auvd_frame")
         if not enough():
             self._await("auvd_frame", enough, window)
-        self._frame = tel.set_frame(self.mission.start_state(), window)
+        turn = frame_turns(self.mission.fly.frame_heading, self.mission.sensors.position.source)
+        self._frame = tel.set_frame(self.mission.start_state(), window, turn)
         n_pos, n_att = tel.frame_readings
-        self._event(f"{tel.describe_frame()} (the mean of {n_pos} positions and {n_att} headings)")
+        how = "" if turn else "; not turned: the positions are fixes in the position source's frame"
+        self._event(f"{tel.describe_frame()} (the mean of {n_pos} positions and {n_att} headings{how})")
 
     def _start_camera(self) -> None:
         """dock.source: camera -- open the frame source and start detecting."""
@@ -744,6 +747,7 @@ class FlySession:
                 self.dock,
                 self.mission.sensors.position.figures()[2],
                 frame_cov=self.telemetry.frame_cov,
+                position_bias_std_m=self.mission.sensors.position.bias_std_m,
             ),
         )
         return _Ending(

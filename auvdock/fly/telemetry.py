@@ -55,7 +55,7 @@ from auvdock.fly.units import (
 )
 from auvdock.sensing.errors import sensor_errors
 from auvdock.sensing.readings import Reading
-from auvdock.sensing.settings import SensorSettings
+from auvdock.sensing.settings import DEAD_RECKONED_SOURCES, SensorSettings
 from auvdock.vehicle.geometry import Rz, rotation_zyx, wrap_angle
 
 if TYPE_CHECKING:
@@ -67,6 +67,7 @@ __all__ = [
     "MissionFrame",
     "TelemetrySensors",
     "geofence_violation",
+    "frame_turns",
     "boot_time_s",
     "age_s",
 ]
@@ -108,9 +109,14 @@ class MissionFrame:
     p_mission0: np.ndarray
 
     @classmethod
-    def at_start(cls, p_vehicle: np.ndarray, psi_vehicle: float, x0: np.ndarray) -> MissionFrame:
-        """The frame putting the vehicle pose (``p_vehicle``, ``psi_vehicle``) at the mission start."""
-        return cls(wrap_angle(float(x0[5]) - psi_vehicle), np.asarray(p_vehicle, float), x0[0:3].copy())
+    def at_start(
+        cls, p_vehicle: np.ndarray, psi_vehicle: float, x0: np.ndarray, turn: bool = True
+    ) -> MissionFrame:
+        """The frame putting the vehicle pose (``p_vehicle``, ``psi_vehicle``) at the mission start; with
+        ``turn`` False only its position (the mission drawn in the position source's frame: the axes
+        are the autopilot's, the vehicle's heading what it reads)."""
+        dpsi = wrap_angle(float(x0[5]) - psi_vehicle) if turn else 0.0
+        return cls(dpsi, np.asarray(p_vehicle, float), x0[0:3].copy())
 
     @property
     def R(self) -> np.ndarray:
@@ -138,6 +144,17 @@ class MissionFrame:
             f"({x0p[0]:.2f}, {x0p[1]:.2f}, {x0p[2]:.2f}) m, "
             f"{math.degrees(wrap_angle(psi_vehicle + self.dpsi)):.1f} deg"
         )
+
+
+def frame_turns(frame_heading: str, position_source: str) -> bool:
+    """Whether the mission frame turns by the vehicle's measured heading (``fly.frame_heading``):
+    ``vehicle`` yes, ``source`` no, ``auto`` for dead-reckoned positions only
+    (:data:`auvdock.sensing.settings.DEAD_RECKONED_SOURCES`).  Positions fixed in an outside frame do not
+    turn with the compass: turning them by its heading puts its error into every position (against SITL,
+    whose GPS is such a fix, a 2 deg heading error put the dock 6 cm to the side at 2 m)."""
+    if frame_heading == "auto":
+        return position_source in DEAD_RECKONED_SOURCES
+    return frame_heading == "vehicle"
 
 
 def boot_time_s(msg: Any) -> float | None:
@@ -194,6 +211,8 @@ class TelemetrySensors:
         self._history: dict[str, deque[tuple[int, Any]]] = {}
         #: How many positions and headings the mission frame was set on (:meth:`set_frame`).
         self.frame_readings = (0, 0)
+        #: Whether the mission frame turned the vehicle's heading onto the mission's (:meth:`set_frame`).
+        self.frame_turned = True
         self._new: dict[str, tuple[Any, int]] = {}
         self.frame: MissionFrame | None = None
         self._depth0: float | None = None
@@ -341,17 +360,20 @@ class TelemetrySensors:
         ``window_s`` of each one's newest: what :meth:`set_frame` averages."""
         return min(len(self._recent(m, window_s)) for m in _FRAME_SOURCES)
 
-    def set_frame(self, x0: np.ndarray, window_s: float = 0.0) -> MissionFrame:
+    def set_frame(self, x0: np.ndarray, window_s: float = 0.0, turn: bool = True) -> MissionFrame:
         """Map the vehicle's pose onto the mission start ``x0`` (12,): the mean of the LOCAL_POSITION_NED
         positions and the circular mean of the ATTITUDE headings received within ``window_s`` (s) of
         the newest (0: the latest only; one heading of a 2 deg noisy compass turns the whole frame, 7 cm
-        at a dock 2 m away); the depth sensor's reading now becomes the start depth."""
+        at a dock 2 m away); the depth sensor's reading now becomes the start depth.  ``turn``
+        (:func:`frame_turns`): the frame turns the vehicle's heading onto the mission's; else it only
+        moves the positions."""
         atts = self._recent("ATTITUDE", window_s) or [self.latest("ATTITUDE")[0]]
         poss = self._recent("LOCAL_POSITION_NED", window_s) or [self.latest("LOCAL_POSITION_NED")[0]]
         p = np.mean([[m.x, m.y, m.z] for m in poss], axis=0)
         yaws = np.array([float(m.yaw) for m in atts])
         psi = float(np.arctan2(np.mean(np.sin(yaws)), np.mean(np.cos(yaws))))
-        self.frame = MissionFrame.at_start(p, psi, x0)
+        self.frame = MissionFrame.at_start(p, psi, x0, turn)
+        self.frame_turned = bool(turn)
         self.frame_readings = (len(poss), len(atts))
         for mtype in _DEPTH_TYPES:
             msg, _ = self.latest(mtype)
@@ -364,12 +386,16 @@ class TelemetrySensors:
     def frame_cov(self, p_mission: np.ndarray) -> np.ndarray:
         """The covariance (3, 3, m^2) the mission frame's own error adds to a position ``p_mission``
         (m) mapped through it: its origin, the mean of ``n`` positions (the position noise / sqrt(n)
-        per axis), and its heading, the mean of ``m`` headings (the heading noise / sqrt(m)), which
-        turns every position about the start by that angle (1 cm at 2 m for 2 deg over 50 readings)."""
+        per axis), and, where the frame turned (:attr:`frame_turned`), its heading, the mean of ``m``
+        headings (the heading noise / sqrt(m)), which turns every position about the start by that angle
+        (1 cm at 2 m for 2 deg over 50 readings).  The heading's noise is taken as white: a compass's
+        bias is not in it (SITL's EKF heading read 2 deg off its physics', 7 cm at 2 m)."""
         frame = self._mission_frame()
         n_pos, n_att = (max(1, n) for n in self.frame_readings)
         std_p = np.asarray(self._std["position"], dtype=float) / math.sqrt(n_pos)
         std_psi = float(np.asarray(self._std["attitude"], dtype=float)[2]) / math.sqrt(n_att)
+        if not self.frame_turned:
+            std_psi = 0.0
         lever = np.asarray(p_mission, dtype=float) - frame.p_mission0
         turn = np.array([-lever[1], lever[0], 0.0])  # d p / d psi of a rotation about down
         return np.diag(std_p**2) + std_psi**2 * np.outer(turn, turn)

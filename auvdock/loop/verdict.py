@@ -14,7 +14,8 @@ dock ``r`` and that position's covariance ``P``:
   the filter's position covariance;
 * ``estimation: truth``: the autopilot's position telemetry, the mean of its last five distinct
   readings (each carried to the newest along the relative velocity it was read with), with the
-  position source's stated noise over five (isotropic; independent readings), plus the dock's own
+  position source's stated noise over five (isotropic; independent readings) and its slowly varying
+  error whole (``sensors.position.bias_std_m``: the mean does not average it), plus the dock's own
   covariance where the dock is tracked by the camera (``dock.source: camera``: the fixes' Kalman
   covariance), taken as independent.
 
@@ -123,6 +124,10 @@ class MarginVerdict:
         ``frame_cov(p)`` (3, 3, m^2): what the mission frame's own error adds at position ``p`` (fly:
         :meth:`auvdock.fly.telemetry.TelemetrySensors.frame_cov`), for the bases that place the vehicle
         in the mission's frame (not a position relative to a camera-fixed dock).
+    position_bias_std_m : float
+        The std per axis of the position telemetry's slowly varying error, m
+        (``sensors.position.bias_std_m``): added whole to the mean of the readings, which does not
+        average it.
 
     Attributes
     ----------
@@ -136,10 +141,12 @@ class MarginVerdict:
         dock: DockModel,
         position_std_m: float,
         frame_cov: Callable[[np.ndarray], np.ndarray] | None = None,
+        position_bias_std_m: float = 0.0,
     ) -> None:
         self.tolerance_m = float(tolerance_m)
         self.dock = dock
         self.position_std_m = float(position_std_m)
+        self.position_bias_std_m = float(position_bias_std_m)
         self.frame_cov = frame_cov
         self.closest: Verdict | None = None
         self._recent: deque[tuple[float, np.ndarray, np.ndarray, np.ndarray]] = deque()
@@ -165,7 +172,7 @@ class MarginVerdict:
         else:
             rel, n = self._telemetry_mean(estimate, rel)
             basis = f"position telemetry, the mean of {n}" if n > 1 else "position telemetry"
-            cov = np.eye(3) * self.position_std_m**2 / n
+            cov = np.eye(3) * (self.position_std_m**2 / n + self.position_bias_std_m**2)
             dock_cov = getattr(self.dock, "offset_covariance", None)
             if dock_cov is not None and getattr(self.dock, "process_noise", None) is not None:
                 basis, cov = f"{basis}, and the camera's dock", cov + np.asarray(dock_cov, float)

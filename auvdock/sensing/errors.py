@@ -75,7 +75,8 @@ def _depth(s: SensorSettings) -> SensorErrors:
 
 def _position(s: SensorSettings) -> SensorErrors:
     rate, latency, std = s.position.figures()
-    return SensorErrors("position", rate, latency, np.full(3, std), None, s.position.source != "none")
+    bias = np.full(3, s.position.bias_std_m) if s.position.bias_std_m > 0 else None  # None: no draw
+    return SensorErrors("position", rate, latency, np.full(3, std), bias, s.position.source != "none")
 
 
 def _dvl(s: SensorSettings) -> SensorErrors:

@@ -122,6 +122,13 @@ POSITION_SOURCES: dict[str, tuple[float, float, float, str]] = {
 }
 
 
+#: The position sources whose positions are dead reckoned in the vehicle's own heading (none: the
+#: autopilot's EKF on its IMU; a DVL's velocities integrated with the compass): a compass error turns
+#: them with the vehicle.  The others (acoustic, camera, motion capture) fix the vehicle in an outside
+#: frame, whatever the compass says.
+DEAD_RECKONED_SOURCES = frozenset({"none", "dvl_dead_reckoning"})
+
+
 class DockCameraSettings(Strict):
     """The front camera's fixes of the dock's markers, as a sensor of the simulated suite.
 
@@ -254,6 +261,12 @@ class PositionSettings(Strict):
     latency_s: NonNegFloat | None = Field(default=None, description="fix to use, s (default: the source's)")
     std_m: NonNegFloat | None = Field(
         default=None, description="noise std per axis, m (default: the source's)"
+    )
+    bias_std_m: NonNegFloat = Field(
+        default=0.0,
+        description="std per axis of the fixes' slowly varying error, m: drawn once per run in simulation; "
+        "a mean of readings does not average it (an EKF's GPS wander: measured 0.7-1.8 cm against "
+        "ArduSub SITL, whose fixes' white part is 0.5 mm); 0: the fixes' error is white",
     )
 
     def figures(self) -> tuple[float, float, float]:

@@ -106,6 +106,7 @@ from auvdock.vehicle.actuators import ActuatorCommand, IdealActuators
 from auvdock.vehicle.geometry import wrap_angle
 from auvdock.vehicle.state import POS
 from auvdock.vehicle.thrusters import PWM_MAX_US, PWM_MIN_US, PWM_NEUTRAL_US, T200, ThrusterCurve
+from auvdock.world.dock import ShiftedDock
 from auvdock.world.plant import TruthPlant
 
 __all__ = [
@@ -387,6 +388,8 @@ class SitlPhysics:
             )
         self._x_start = mission.start_state().astype(float)
         self._dock_offset = np.array(dock_offset_ned_m, dtype=float).reshape(3)
+        #: The true dock: where the camera's view puts it (the distances and the truth file measure to it).
+        self.true_dock = ShiftedDock(self.dock, self._dock_offset)
         z0 = float(self._x_start[2])
         self._lowered = self.boot_at_surface and z0 > 0.0
         self._descent_s = max(DESCENT_MIN_S, 1.5 * z0 / DESCENT_SPEED_M_S) if self._lowered else 0.0
@@ -594,7 +597,7 @@ class SitlPhysics:
 
     def _dock_distance(self, x: np.ndarray, t: float) -> float:
         """From the vehicle's origin to the true docking point at physics time ``t``, m."""
-        p = np.asarray(self.dock.position(t), dtype=float) + self._dock_offset
+        p = np.asarray(self.true_dock.position(t), dtype=float)
         return float(np.linalg.norm(x[POS] - p))
 
     def _held(self, t: float) -> tuple[np.ndarray, str]:
@@ -702,7 +705,7 @@ class SitlPhysics:
             recorder = LoopRecorder(  # nothing kept in memory: it stays flat however long it runs
                 [],
                 vehicle=self.vehicle,
-                dock=self.dock,
+                dock=self.true_dock,
                 extra_series={},
                 plant_columns=dict(_SitlPlant.columns),
                 channels=False,
@@ -719,7 +722,7 @@ class SitlPhysics:
                 autopilot=pilot,
                 actuators=IdealActuators(self.vehicle),  # the motors' thrust, from SITL's own mixer
                 recorder=recorder,
-                dock=self.dock,
+                dock=self.true_dock,
                 tolerance_m=None,  # the flight decides docking
                 timeout_s=math.inf,  # until stopped (or duration_s)
             )

@@ -364,7 +364,7 @@ def attitude(t: float, x: np.ndarray, noise: SensorNoise) -> mavlink2.MAVLink_me
 
 def local_position_ned(t: float, x: np.ndarray, noise: SensorNoise) -> mavlink2.MAVLink_message:
     """LOCAL_POSITION_NED at ``t`` (s) of state ``x``: position NED (m), velocity over ground NED (m/s)."""
-    p = x[POS] + noise.white("position")
+    p = x[POS] + noise.white("position") + (noise.bias["position"] if noise.enabled else 0.0)
     v = TruthPlant.rotation(x) @ x[LIN] + noise.white("dvl")
     return M.MAVLink_local_position_ned_message(time_boot_ms(t), *map(float, (*p, *v)))
 

@@ -17,7 +17,7 @@ import numpy as np
 
 from auvdock.vehicle.state import LIN, NX, POS, YAW
 
-__all__ = ["DockMotion", "TranslatingDock", "HeaveDock", "ClockedDock", "TrackedDock"]
+__all__ = ["DockMotion", "TranslatingDock", "HeaveDock", "ClockedDock", "ShiftedDock", "TrackedDock"]
 
 
 class DockMotion(Protocol):
@@ -179,6 +179,42 @@ class ClockedDock(TranslatingDock):
     def velocity(self, t: float | np.ndarray) -> np.ndarray:
         """Dock velocity (NED, m/s) at time(s) ``t`` (s) of this clock, shape (..., 3)."""
         return self.dock.velocity(np.asarray(t, dtype=float) + self.offset_s)
+
+
+class ShiftedDock(TranslatingDock):
+    """A dock moved by a constant offset: ``position(t) = dock.position(t) + offset_ned_m``.
+
+    ``sitl-physics`` renders the dock where the camera sees it, ``camera.synthetic.dock_offset_m`` from
+    where the mission charts it (so that only the camera can lead the vehicle there): that is the true
+    dock, which its distances and its truth file measure against.
+
+    Parameters
+    ----------
+    dock : TranslatingDock
+        The motion shifted.
+    offset_ned_m : array_like (3,)
+        The shift, NED m.
+    """
+
+    def __init__(self, dock: TranslatingDock, offset_ned_m: np.ndarray | tuple[float, ...]) -> None:
+        self.dock = dock
+        self.offset_ned_m = np.asarray(offset_ned_m, dtype=float).reshape(3)
+        self.heading_rad = dock.heading_rad
+
+    @property
+    def position_ned_m(self) -> tuple[float, float, float]:
+        """The shifted dock's mean position, NED m."""
+        mean = getattr(self.dock, "position_ned_m", (0.0, 0.0, 0.0))
+        n, e, d = (np.array([float(v) for v in mean]) + self.offset_ned_m).tolist()
+        return (n, e, d)
+
+    def position(self, t: float | np.ndarray) -> np.ndarray:
+        """Dock position (NED, m) at time(s) ``t`` (s), shape (..., 3)."""
+        return self.dock.position(t) + self.offset_ned_m
+
+    def velocity(self, t: float | np.ndarray) -> np.ndarray:
+        """Dock velocity (NED, m/s) at time(s) ``t`` (s), shape (..., 3)."""
+        return self.dock.velocity(t)
 
 
 class TrackedDock:
