@@ -157,6 +157,18 @@ def _dock_heave(t: float) -> tuple[np.ndarray, np.ndarray]:
     return np.array([0.0, 0.0, 0.3 * np.sin(w * t)]), np.array([0.0, 0.0, 0.3 * w * np.cos(w * t)])
 
 
+def _suite_std() -> dict[str, np.ndarray]:
+    """The default sensor suite's white-noise std per reading kind (the truth runs' readings)."""
+    suite = SensorSettings()
+    return {
+        "attitude": np.array([suite.ahrs.roll_pitch_std_rad] * 2 + [suite.ahrs.yaw_std_rad]),
+        "gyro": np.full(3, suite.imu.gyro_noise_rad_s),
+        "accel": np.full(3, suite.imu.accel_noise_m_s2),
+        "depth": np.array([suite.depth.std_m]),
+        "position": np.full(3, suite.position.figures()[2]),
+    }
+
+
 def _process_truth_run(vehicle, truth_step, seed, settings, T, every, dock_from_t=None):
     """One run whose truth is the process the filter assumes (Bar-Shalom's consistency test).
 
@@ -171,14 +183,7 @@ def _process_truth_run(vehicle, truth_step, seed, settings, T, every, dock_from_
     normalised errors.
     """
     rng = np.random.default_rng(seed)
-    suite = SensorSettings()
-    std = {
-        "attitude": np.array([suite.ahrs.roll_pitch_std_rad] * 2 + [suite.ahrs.yaw_std_rad]),
-        "gyro": np.full(3, suite.imu.gyro_noise_rad_s),
-        "accel": np.full(3, suite.imu.accel_noise_m_s2),
-        "depth": np.array([suite.depth.std_m]),
-        "position": np.full(3, suite.position.figures()[2]),
-    }
+    std = _suite_std()
     measure = Measure(vehicle)
     mount = CameraMount()
     nav = NavigationFilter(settings, vehicle, DT, (mount.R_bc(), mount.t_bc()), _dock_heave)
@@ -352,14 +357,7 @@ def _link_truth_run(vehicle, seed, settings, timing_known, T=10.0, every=5, dela
     vc, h = ca.SX.sym("vc", 2), ca.SX.sym("h")
     f = lambda xx: vehicle.model.dynamics(xx, u_s, ca.vertcat(vc, 0), ca.DM.zeros(3))  # noqa: E731
     step = BufferedFunction(ca.Function("truth_h", [x, u_s, vc, h], [rk4(f, x, h, 2)]))
-    suite = SensorSettings()
-    std = {
-        "attitude": np.array([suite.ahrs.roll_pitch_std_rad] * 2 + [suite.ahrs.yaw_std_rad]),
-        "gyro": np.full(3, suite.imu.gyro_noise_rad_s),
-        "accel": np.full(3, suite.imu.accel_noise_m_s2),
-        "depth": np.array([suite.depth.std_m]),
-        "position": np.full(3, suite.position.figures()[2]),
-    }
+    std = _suite_std()
     measure = Measure(vehicle)
     nav = NavigationFilter(settings, vehicle, DT)
     x0 = np.zeros(NX)
