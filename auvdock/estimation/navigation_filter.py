@@ -389,6 +389,17 @@ _FUNCTIONS: weakref.WeakKeyDictionary[Vehicle, dict[_Key, tuple[ca.Function, ...
 _FUNCTIONS = weakref.WeakKeyDictionary()
 
 
+def _accel_per_thrust(vehicle: Vehicle) -> np.ndarray:
+    """The accelerometer reading's slope in the thrust (3, n; m/s^2 per N): the Jacobian of
+    :func:`auvdock.sensing.measurements.h` ``("accel")`` in ``u``, which the model makes linear in the
+    thrust (the same at every state)."""
+    h = measurements.h("accel", vehicle)
+    x, u = ca.SX.sym("x", NX), ca.SX.sym("u", vehicle.n_thrusters)
+    zero3 = ca.DM.zeros(3)
+    jac = ca.Function("accel_per_thrust", [x, u], [ca.jacobian(h(x, u, zero3, zero3, zero3), u)])
+    return np.asarray(jac(np.zeros(NX), np.zeros(vehicle.n_thrusters)), dtype=float).reshape(3, -1)
+
+
 def _step_functions(
     vehicle: Vehicle,
     substeps: int,
@@ -564,6 +575,8 @@ class NavigationFilter:
         #: d(nu_dot)/du (6, n): the body accelerations per newton of each thruster, M^-1 g B
         gain = float(vehicle.model.params.thruster_gain)
         self._thrust_acceleration = vehicle.model.M_inv @ (gain * np.asarray(vehicle.model.B, dtype=float))
+        #: d(accel reading)/du (3, n): the accelerometer's model's own slope in the thrust (it is linear in u)
+        self._accel_per_thrust = _accel_per_thrust(vehicle)
         self._in_m = np.zeros(3)  # the dock's offset from its anchor at the evaluation's time
         # the measurements' second-order covariance at the prediction (zero-copy)
         self._second_order = bool(settings.second_order_prediction)
@@ -729,10 +742,9 @@ class NavigationFilter:
             (r for r in readings if t_last < float(r.t) < t - SAMPLE_TIME_TOL_S), key=lambda r: r.t
         )
         at_t = [r for r in readings if not t_last < float(r.t) < t - SAMPLE_TIME_TOL_S]
-        if any(r.kind in THRUST_KINDS and float(r.t) < t - SAMPLE_TIME_TOL_S for r in at_t):
-            late = [r for r in at_t if r.kind in THRUST_KINDS and float(r.t) < t - SAMPLE_TIME_TOL_S]
-            self.late_dropped += len(late)
-            at_t = [r for r in at_t if not any(r is q for q in late)]
+        kept = [r for r in at_t if not (r.kind in THRUST_KINDS and float(r.t) < t - SAMPLE_TIME_TOL_S)]
+        self.late_dropped += len(at_t) - len(kept)
+        at_t = kept
         nis, n_meas = 0.0, 0
         while between:
             t_group = float(between[0].t)
@@ -811,10 +823,10 @@ class NavigationFilter:
         self, readings: list[Reading], u: ThrustSchedule, R_extra: np.ndarray | None, m: int
     ) -> np.ndarray | None:
         """``R_extra`` (m, m) plus, on each accelerometer reading's rows, what the uncertain instants of
-        the changes of thrust near it add: ``sum p (G du)(G du)^T`` over the changes (the thrust's second
+        the changes of thrust near it add: ``sum p (A du)(A du)^T`` over the changes (the thrust's second
         moment about the one assumed: off by ``du`` with probability ``p``)
-        (:meth:`~auvdock.estimation.delay.ThrustSchedule.unsure_at`), ``G`` the linear rows of ``M^-1 B``
-        (the thrust's share of the specific force at the body origin).  None when nothing is added."""
+        (:meth:`~auvdock.estimation.delay.ThrustSchedule.unsure_at`), ``A`` the accelerometer model's
+        slope in the thrust (:func:`_accel_per_thrust`).  None when nothing is added."""
         out = R_extra
         i0 = 0
         for r in readings:
@@ -823,7 +835,7 @@ class NavigationFilter:
                 cov = np.zeros((n, n))
                 for p, du in u.unsure_at(float(r.t)):
                     if p > 1e-6:
-                        g = self._thrust_acceleration[0:3] @ du
+                        g = self._accel_per_thrust @ du
                         cov += p * np.outer(g, g)
                 if np.any(cov):
                     out = np.zeros((m, m)) if out is None else out.copy()

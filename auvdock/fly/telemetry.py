@@ -393,9 +393,7 @@ class TelemetrySensors:
         frame = self._mission_frame()
         n_pos, n_att = (max(1, n) for n in self.frame_readings)
         std_p = np.asarray(self._std["position"], dtype=float) / math.sqrt(n_pos)
-        std_psi = float(np.asarray(self._std["attitude"], dtype=float)[2]) / math.sqrt(n_att)
-        if not self.frame_turned:
-            std_psi = 0.0
+        std_psi = float(self._std["attitude"][2]) / math.sqrt(n_att) if self.frame_turned else 0.0
         lever = np.asarray(p_mission, dtype=float) - frame.p_mission0
         turn = np.array([-lever[1], lever[0], 0.0])  # d p / d psi of a rotation about down
         return np.diag(std_p**2) + std_psi**2 * np.outer(turn, turn)

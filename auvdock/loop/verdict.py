@@ -20,8 +20,9 @@ dock ``r`` and that position's covariance ``P``:
   covariance), taken as independent.
 
 Where the vehicle is placed in the mission's frame (not relative to a camera-fixed dock) the frame's own
-error is added (``frame_cov``: fly sets the frame on the mean of a few seconds of positions and headings;
-its heading error turns every position about the start, 1 cm at a dock 2 m away).
+error is added (``frame_cov``: fly sets the frame on the mean of a few seconds of positions and, where
+the frame turns by the vehicle's heading, headings; that heading's error turns every position about the
+start, 1 cm at a dock 2 m away).
 
 Docked when the 95 % confidence ellipsoid of the relative position lies inside the tolerance sphere,
 checked by the sufficient condition ``|r| + k95 sqrt(lambda_max(P)) <= tolerance``, with
@@ -29,7 +30,7 @@ checked by the sufficient condition ``|r| + k95 sqrt(lambda_max(P)) <= tolerance
 estimated distance and the bound of the verdict.
 
 With a 1 cm position noise alone one reading's margin is 2.8 cm, the mean of five readings' 1.25 cm;
-the frame's heading error (2 deg over 2 s of headings) adds about 1 cm of std at the tank's dock.  A
+a turned frame's heading error (2 deg over 2 s of headings) adds about 1 cm of std at the tank's dock.  A
 vehicle whose estimate is never that certain is not declared docked (the run times out), and the
 results record the smallest bound reached (``verdict_bound_m``).
 """
