@@ -95,16 +95,37 @@ def test_shipped_missions_are_in_the_package() -> None:
     assert resolve("no_such_mission") == Path("no_such_mission")
 
 
+def _see_this_environment(py: Path) -> None:
+    """Let the venv of ``py`` import the packages of the environment running the suite: its
+    site-packages folders listed in a ``.pth`` file of the venv's own site-packages.  (A venv made
+    with ``system_site_packages`` would see the *base* interpreter's packages instead, which in a
+    venv of the user's are not the ones ``pip install -e ".[test]"`` put there.)  Folders named in
+    a ``.pth`` file are added after the venv's own, and their own ``.pth`` files are not run, so
+    the editable install of the checkout stays invisible and the installed auvdock comes first."""
+    import site
+
+    own = subprocess.run(
+        [str(py), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+        check=True,
+        capture_output=True,
+        text=True,
+    ).stdout.strip()
+    theirs = [*site.getsitepackages(), *([site.getusersitepackages()] if site.ENABLE_USER_SITE else [])]
+    folders = [p for p in dict.fromkeys(theirs) if Path(p).is_dir() and Path(p).resolve() != ROOT]
+    (Path(own) / "suite_environment.pth").write_text("".join(f"{p}\n" for p in folders))
+
+
 @pytest.mark.skipif(os.environ.get("AUVDOCK_SKIP_INSTALL_TEST") == "1", reason="AUVDOCK_SKIP_INSTALL_TEST=1")
 @pytest.mark.slow
 def test_plain_install_runs_shipped_missions_from_any_folder(tmp_path: Path) -> None:
     """``pip install .`` (not editable) into a fresh venv, then from another folder
-    ``auvdock missions`` lists them and ``auvdock sim gyre`` docks.  The venv sees this
-    machine's packages (no network needed), pip among them (so the venv gets no copy of its
-    own: ensurepip takes about 8 s); auvdock itself comes from the install."""
+    ``auvdock missions`` lists them and ``auvdock sim gyre`` docks.  The venv sees the packages
+    of the environment the suite runs in (no network needed), pip among them (so the venv gets no
+    copy of its own: ensurepip takes about 8 s); auvdock itself comes from the install."""
     env_dir = tmp_path / "venv"
-    venv.create(env_dir, system_site_packages=True, with_pip=False)
+    venv.create(env_dir, with_pip=False)
     py = env_dir / "bin" / "python"
+    _see_this_environment(py)
     build = tmp_path / "src"  # a copy, so the install does not write into the checkout
     subprocess.run(
         ["git", "-C", str(ROOT), "ls-files", "-z"], check=True, capture_output=True
