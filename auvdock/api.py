@@ -1,14 +1,17 @@
-"""The library entry points a notebook uses: :func:`simulate` and :func:`load_mission`.
+"""The library entry points a notebook uses: :func:`simulate`, :func:`load_mission`, :func:`load_run`.
 
 >>> import auvdock
 >>> run = auvdock.simulate("gyre", docking__timeout_s=20)
 >>> run
 Run(mission='gyre', controller='oracle', docked at 12.60 s, 253 steps)
->>> run.to_dataframe()["state.x"]          # pandas, one column per component
->>> run.to_xarray().state.sel(state_component="z")
+>>> run.to_dataframe()["state.z"]          # pandas, one column per component (m)
+>>> run.to_xarray().position.sel(ned="down").plot()    # xarray: labelled "position [m]"
+>>> run.save("gyre.h5")
+>>> auvdock.load_run("gyre.h5")            # the same run, from the file
 
-Both are re-exported by :mod:`auvdock` (``auvdock.simulate``, ``auvdock.load_mission``,
-``auvdock.Run``, ``auvdock.Mission``, ``auvdock.MissionError``).
+They are re-exported by :mod:`auvdock` (``auvdock.simulate``, ``auvdock.load_mission``,
+``auvdock.load_run``, ``auvdock.Run``, ``auvdock.Mission``, ``auvdock.MissionError``,
+``auvdock.RunFileError``).
 
 Overrides
 ---------
@@ -39,7 +42,17 @@ from auvdock.config.mission import Mission, MissionError, parse_mission
 from auvdock.config.mission import load_mission as _load_mission_file
 from auvdock.results.run import Run
 
-__all__ = ["simulate", "load_mission", "Run", "Mission", "MissionError"]
+__all__ = ["simulate", "load_mission", "load_run", "Run", "Mission", "MissionError", "RunFileError"]
+
+
+class RunFileError(Exception):
+    """A results file that cannot be read as a run.  ``str(err)`` is the one line shown to users:
+    ``<path>: no such results file``, ``<path>: not an auvdock results file (...)``, ...; ``path``
+    is the file as given."""
+
+    def __init__(self, path: str | Path, message: str) -> None:
+        self.path = str(path)
+        super().__init__(message)
 
 
 def load_mission(mission: str | Path | Mapping[str, Any] | Mission) -> Mission:
@@ -74,6 +87,42 @@ def load_mission(mission: str | Path | Mapping[str, Any] | Mission) -> Mission:
         f"mission must be a Mission, a file path, a shipped mission's name or a mapping, "
         f"not {type(mission).__name__}"
     )
+
+
+def load_run(path: str | Path, group: str = "/") -> Run:
+    """A run from a results file: what ``auvdock sim`` / ``fly`` / ``replay`` write and
+    :meth:`Run.save` writes, the same :class:`Run` as :func:`simulate` returns.
+
+    Parameters
+    ----------
+    path : str or Path
+        The HDF5 results file (``run.save("gyre.h5")``, ``auvdock sim ... --out DIR``).
+    group : str
+        The run group: ``"/"`` for a single-run file, ``"/runs/<case>/<controller>"`` in a
+        campaign file (``auvdock.results.store.list_runs(path)`` lists them).
+
+    Returns
+    -------
+    Run
+        Every per-step series in the units of :mod:`auvdock.results.store` (``time_s`` s,
+        ``state`` m / rad / m/s / rad/s, ``thrust_N`` N, ...), the outcome, the mission and the
+        controller; ``run.source`` is ``"<path>:<group>"``.  An unfinished run (a crash, Ctrl-C)
+        reads with ``complete`` False and an empty outcome.
+
+    Raises
+    ------
+    RunFileError
+        One error for every file that cannot be read as a run, its message naming the file:
+        ``<path>: no such results file`` for a missing file; ``<path>: not an auvdock results
+        file (...)`` for one that is not HDF5, has no such group or is not a run;
+        ``<path>: cannot read the results file (...)`` for one the system cannot read.
+    """
+    try:
+        return Run.from_file(path, group)
+    except (FileNotFoundError, ValueError) as e:
+        raise RunFileError(path, str(e)) from None
+    except OSError as e:
+        raise RunFileError(path, f"{path}: cannot read the results file ({e})") from None
 
 
 def simulate(

@@ -237,13 +237,17 @@ def test_to_xarray_dims_coords_units(short_run: Run) -> None:
     assert ds.sizes["time_s"] == 11
     np.testing.assert_array_equal(ds["time_s"].values, short_run.time_s)
     assert ds["time_s"].attrs["units"] == "s"
-    assert ds["state"].dims == ("time_s", "state_component")
-    assert list(ds["state_component"].values) == list(STATE_COMPONENTS)
-    assert list(ds["state_unit"].values) == ["m"] * 3 + ["rad"] * 3 + ["m/s"] * 3 + ["rad/s"] * 3
-    np.testing.assert_array_equal(ds["state"].sel(state_component="z").values, short_run.state[:, 2])
-    assert ds["state"].attrs["units"].startswith("m, m, m, rad,")
+    # state and wrench split by unit (tests/test_library_views.py checks every unit)
+    assert ds["position"].dims == ("time_s", "ned") and ds["velocity"].dims == ("time_s", "body")
+    np.testing.assert_array_equal(ds["position"].sel(ned="down").values, short_run.state[:, 2])
+    assert [ds[n].attrs["units"] for n in ("position", "attitude", "velocity", "angular_rate")] == [
+        "m",
+        "rad",
+        "m/s",
+        "rad/s",
+    ]
     assert ds["thrust_N"].dims == ("time_s", "thruster") and list(ds["thruster"].values)[:2] == ["T1", "T2"]
-    assert ds["wrench"].dims == ("time_s", "wrench_component") and ds["wrench"].attrs["units"].endswith("N m")
+    assert ds["moment"].dims == ("time_s", "moment_component") and ds["moment"].attrs["units"] == "N m"
     assert ds["flow_ned_m_s"].dims == ("time_s", "ned") and list(ds["ned"].values) == [
         "north",
         "east",
@@ -263,7 +267,7 @@ def test_to_xarray_dims_coords_units(short_run: Run) -> None:
     }
     for name, unit in expected_units.items():
         assert ds[name].attrs["units"] == unit, name
-    assert all("units" in ds[name].attrs for name in ds.data_vars)
+    assert all("units" in ds[name].attrs for name in ds.data_vars if name != "solver_status")
     assert ds["solver_status"].attrs["flag_meanings"].split()[:2] == ["ok", "not_converged"]
     assert ds.attrs["mission_name"] == "gyre" and ds.attrs["controller"] == "sequential"
     assert ds.attrs["docked"] == 0 and ds.attrs["tolerance_m"] == 0.05 and "mission_yaml" in ds.attrs
@@ -289,7 +293,7 @@ def test_to_dataframe_columns(short_run: Run) -> None:
         "flow_covariance.u.v",
         "flow_estimate_m_s.w",
         "information",
-        "innovation.3",
+        "innovation.depth_rate",
     ):
         assert col in cols, col
     assert "thrust_N.T9" not in cols

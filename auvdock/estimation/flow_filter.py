@@ -324,6 +324,7 @@ class EstimatorStep:
     flow_ned: np.ndarray
     covariance: np.ndarray
     information: float
+    #: (4,): the accelerometer rows (body axes, m/s^2) and the depth-rate row (m/s) of z - H f
     innovation: np.ndarray
     state: np.ndarray  # estimated state (12,), over-ground velocity
 
@@ -451,6 +452,9 @@ class FlowEstimator:
         eta = np.asarray(eta, dtype=float)
         nu_r = np.asarray(nu_r, dtype=float)
         R_nb = self.R(eta[ATT])
+        # the innovation recorded: the accelerometer and depth-rate rows' (0: no such reading this step),
+        # not the pose-motion update's that may follow (another measurement, in NED)
+        innovation = np.zeros(4)
         if self.kf is None:
             f0 = R_nb.T @ self.prior_flow_ned
             self.kf = FlowKalmanFilter(
@@ -480,6 +484,7 @@ class FlowEstimator:
                 else:
                     z[3] = depth_rate - R_nb[2] @ nu_r[0:3]
                     self.kf.update(z, H, R, self._gate(4))
+                innovation = self.kf.last_innovation.copy()
             if self.position_var is not None:
                 # the pose's own motion: (p_k - p_(k-1)) / dt = R (nu_r1 + f) over the period, so
                 # z = dp/dt - R nu_r1 = R f, model-free (the accelerometer rows need the model)
@@ -491,9 +496,7 @@ class FlowEstimator:
         self._prev = (eta.copy(), nu_r.copy())
         f = self.kf.estimate()
         state = np.concatenate([eta, nu_r[0:3] + f, nu_r[3:6]])
-        return EstimatorStep(
-            f, R_nb @ f, self.kf.covariance(), self.kf.information(), self.kf.last_innovation.copy(), state
-        )
+        return EstimatorStep(f, R_nb @ f, self.kf.covariance(), self.kf.information(), innovation, state)
 
     # the small interface, delegated
     def estimate(self) -> np.ndarray:
