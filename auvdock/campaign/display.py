@@ -13,6 +13,7 @@ from collections.abc import Callable
 from typing import Any
 
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import (
     BarColumn,
     MofNCompleteColumn,
@@ -31,10 +32,10 @@ __all__ = ["CampaignProgress", "outcome_text"]
 def outcome_text(row: dict[str, Any]) -> str:
     """A finished run in a few words, with rich markup: docked 19.90 s / timeout 75 s / failed: ..."""
     if row["status"] != "done":
-        return f"[red]failed[/red]: {row['error']}"
+        return f"[red]failed[/red]: {escape(str(row['error']))}"
     if row["docked"]:
         return f"[green]docked[/green] {row['time_to_dock_s']:.2f} s"
-    return f"[yellow]{row.get('reason') or 'timeout'}[/yellow] {row['end_time_s']:.0f} s"
+    return f"[yellow]{escape(str(row.get('reason') or 'timeout'))}[/yellow] {row['end_time_s']:.0f} s"
 
 
 def _eta(seconds: float | None) -> str:
@@ -107,7 +108,7 @@ class CampaignProgress:
 
     def _run_task(self, spec: RunSpec, info: str) -> Any:
         if spec.run_id not in self._tasks:
-            self._tasks[spec.run_id] = self.bar.add_task(self.label(spec), total=1.0, info=info)
+            self._tasks[spec.run_id] = self.bar.add_task(escape(self.label(spec)), total=1.0, info=info)
         return self._tasks[spec.run_id]
 
     def __call__(self, kind: str, spec: RunSpec | None, info: dict[str, Any]) -> None:
@@ -129,7 +130,11 @@ class CampaignProgress:
         elif kind == "retry":
             if spec.run_id in self._tasks:
                 self.bar.remove_task(self._tasks.pop(spec.run_id))
-            self.bar.console.print(f"  {self.label(spec):<28} [yellow]retried[/yellow]: {info['error']}")
+            self.bar.console.print(
+                f"  {escape(f'{self.label(spec):<28}')} [yellow]retried[/yellow]: "
+                f"{escape(str(info['error']))}",
+                highlight=False,
+            )
         elif kind == "done":
             if spec.run_id in self._tasks:
                 self.bar.remove_task(self._tasks.pop(spec.run_id))
@@ -140,5 +145,6 @@ class CampaignProgress:
             if self.lines:
                 wall = info.get("wall_time_s", float("nan"))
                 self.bar.console.print(
-                    f"  {self.label(spec):<28} {outcome_text(info)}  (wall {wall:.1f} s)", highlight=False
+                    f"  {escape(f'{self.label(spec):<28}')} {outcome_text(info)}  (wall {wall:.1f} s)",
+                    highlight=False,
                 )

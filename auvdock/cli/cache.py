@@ -17,10 +17,10 @@ def cache_info() -> None:
 
     entries = cache_entries()
     total = sum(n for _, n in entries)
-    console.print(f"cache: {cache_dir()}")
+    console.print(f"cache: {cache_dir()}", markup=False, highlight=False)
     console.print(f"compiled solvers: {len(entries)} ({total / 1e6:.1f} MB)")
     for p, n in entries:
-        console.print(f"  {p.name}  {n / 1e6:.1f} MB")
+        console.print(f"  {p.name}  {n / 1e6:.1f} MB", markup=False)
     cc = find_compiler()
     console.print(
         f"compiler: {cc or 'none found (solvers run uncompiled)'}; AUVDOCK_COMPILE={compile_mode()}"
@@ -33,4 +33,4 @@ def cache_clear() -> None:
     from auvdock.runtime.codegen import cache_dir, clear_cache
 
     n = clear_cache()
-    console.print(f"removed {n} compiled solver{'s' if n != 1 else ''} from {cache_dir()}")
+    console.print(f"removed {n} compiled solver{'s' if n != 1 else ''} from {cache_dir()}", markup=False)

@@ -227,4 +227,6 @@ def calibrate(
         f"{cam.n_views} views, RMS reprojection error {cam.rms_px:.3f} px; fx {K[0, 0]:.1f} fy {K[1, 1]:.1f} "
         f"cx {K[0, 2]:.1f} cy {K[1, 2]:.1f} px; image {cam.width}x{cam.height}"
     )
-    console.print(f"camera file: {out} (set camera.calibration: {out} in the mission)")
+    console.print(
+        f"camera file: {out} (set camera.calibration: {out} in the mission)", markup=False, highlight=False
+    )

@@ -13,6 +13,7 @@ import shlex
 from pathlib import Path
 
 import typer
+from rich.markup import escape
 from rich.table import Table
 
 from auvdock.cli.app import (
@@ -28,6 +29,19 @@ from auvdock.cli.app import (
 )
 from auvdock.cli.tables import fitted_table
 from auvdock.config.mission import MissionError
+
+
+def controllers_text(specs: list[str]) -> str:
+    """The controllers of a plan in words: ``5 controllers x 2 variants (robust, paper)`` when every
+    controller runs in every variant (the default ``compare``), else ``3 controllers``."""
+    from auvdock.controllers import split_controller
+
+    pairs = [split_controller(c) for c in specs]
+    names = list(dict.fromkeys(n for n, _ in pairs))
+    variants = list(dict.fromkeys(v or "robust" for _, v in pairs))
+    if len(variants) > 1 and len(names) * len(variants) == len(set(pairs)) == len(specs):
+        return f"{len(names)} controllers x {len(variants)} variants ({', '.join(variants)})"
+    return f"{len(specs)} controller{'s' if len(specs) != 1 else ''}"
 
 
 def _interrupted(path: Path) -> None:
@@ -67,7 +81,12 @@ def _campaign_outputs(path: Path, out_dir: Path, *, pdf: bool, plots: bool, reco
         ft.add_column(h)  # prose: wrapped at spaces, never inside a number
     for f in check_findings(records):
         colour = {"holds": "green", "not run": "dim"}.get(f.verdict, "yellow")
-        ft.add_row(f.finding, f.measured, f"[{colour}]{f.verdict}[/{colour}]", f.explanation)
+        ft.add_row(
+            escape(f.finding),
+            escape(f.measured),
+            f"[{colour}]{escape(f.verdict)}[/{colour}]",
+            escape(f.explanation),
+        )
     note = coverage_note(records)
     if note:
         ft.caption = note
@@ -79,7 +98,7 @@ def _campaign_outputs(path: Path, out_dir: Path, *, pdf: bool, plots: bool, reco
 
         runs = read_campaign_runs(path)
         written += plot_campaign(records, runs, out_dir, formats=("png", "pdf") if pdf else ("png",))
-    console.print("written: " + ", ".join(str(p) for p in written))
+    console.print("written: " + ", ".join(str(p) for p in written), markup=False, highlight=False)
 
 
 def _sweep_outputs(path: Path, out_dir: Path, title: str) -> list[Path]:
@@ -93,9 +112,11 @@ def _sweep_outputs(path: Path, out_dir: Path, title: str) -> list[Path]:
     written = report_sweep(path, out_dir)
     md = [p for p in written if p.suffix == ".md"]
     if md:
-        console.print(f"summary: {md[0]}", highlight=False)
+        console.print(f"summary: {md[0]}", markup=False, highlight=False)
     console.print(
-        f"figures: {sum(p.suffix == '.png' for p in written)} PNG files in {out_dir}", highlight=False
+        f"figures: {sum(p.suffix == '.png' for p in written)} PNG files in {out_dir}",
+        markup=False,
+        highlight=False,
     )
     return written
 
@@ -103,7 +124,7 @@ def _sweep_outputs(path: Path, out_dir: Path, title: str) -> list[Path]:
 def _worker_logs(out_dir: Path) -> None:
     logs = out_dir / "logs"
     if logs.is_dir() and any(p.stat().st_size > 0 for p in logs.glob("worker-*.log")):
-        console.print(f"worker output (solver warnings): {logs}", highlight=False)
+        console.print(f"worker output (solver warnings): {logs}", markup=False, highlight=False)
 
 
 def _ran_line(res) -> None:
@@ -116,6 +137,7 @@ def _ran_line(res) -> None:
     console.print(
         f"campaign wall time {res.wall_time_s:.1f} s on {res.executor}; in the runs: {loop:.1f} s of closed "
         f"loop (mean {loop / max(1, len(rows)):.1f} s per run) + {setup:.1f} s of controller set-up",
+        markup=False,
         highlight=False,
     )
 
@@ -218,8 +240,9 @@ def compare(
     n_cases = len(specs) // max(1, len(ctrls))
     where = f"Dask scheduler {scheduler}" if scheduler else f"{n_jobs} worker processes"
     console.print(
-        f"[bold]campaign[/bold]: {n_cases} cases x {len(ctrls)} controllers = {len(specs)} runs, "
-        f"{where} -> {path}"
+        f"[bold]campaign[/bold]: {n_cases} cases x {controllers_text(ctrls)} = {len(specs)} runs, "
+        f"{escape(where)} -> {escape(str(path))}",
+        highlight=False,
     )
     try:
         with CampaignProgress(
@@ -329,7 +352,8 @@ def sweep(
     if s.model_error.n:
         parts.append(n_of(s.model_error.n, "model-error draw"))
     console.print(
-        f"[bold]sweep[/bold] {s.name}: {' x '.join(parts)} = {n_of(s.n_runs, 'run')} -> {path}",
+        f"[bold]sweep[/bold] {escape(str(s.name))}: {' x '.join(parts)} = {n_of(s.n_runs, 'run')} "
+        f"-> {escape(str(path))}",
         highlight=False,
     )
     try:
@@ -350,11 +374,11 @@ def sweep(
         _interrupted(path)
     _ran_line(res)
     _sweep_outputs(res.path, out_dir, f"sweep {s.name}: success per controller (Wilson 95 % intervals)")
-    console.print(f"results: {res.path}", highlight=False)
+    console.print(f"results: {res.path}", markup=False, highlight=False)
     _worker_logs(out_dir)
     if res.errors:
         for rid, err in list(res.errors.items())[:5]:
-            console.print(f"  [red]failed[/red] {rid}: {err}", highlight=False)
+            console.print(f"  [red]failed[/red] {escape(f'{rid}: {err}')}", highlight=False)
         if len(res.errors) > 5:
             console.print(f"  ... and {len(res.errors) - 5} more (column 'error' of the run table)")
         raise typer.Exit(code=1)

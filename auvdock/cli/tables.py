@@ -12,6 +12,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from rich.table import Table
+from rich.text import Text
 
 __all__ = ["fitted_table"]
 
@@ -71,7 +72,7 @@ def fitted_table(
     caption = None
     if dropped:
         caption = f"not shown at {width} columns: {', '.join(dropped)}" + (f" (in {where})" if where else "")
-    t = Table(title=title, caption=caption)
+    t = Table(title=Text(title, style="table.title"), caption=caption)  # Text: user text is no markup
     for i in cols:
         t.add_column(
             header[i].replace(" ", "\n"),
@@ -80,5 +81,5 @@ def fitted_table(
             min_width=need[i] - _COLUMN_OVERHEAD,
         )
     for k, r in enumerate(rows):
-        t.add_row(*(r[i] for i in cols), style=row_styles[k] if row_styles is not None else None)
+        t.add_row(*(Text(r[i]) for i in cols), style=row_styles[k] if row_styles is not None else None)
     return t

@@ -62,7 +62,7 @@ def validate(
     flow = m.build_flow()
     sea = m.build_sea()
     dock = m.build_dock(sea)
-    console.print(f"flow: {flow.describe()}")
+    console.print(f"flow: {flow.describe()}", markup=False, highlight=False)
     if sea is None:
         console.print("sea: no waves")
     else:
@@ -117,7 +117,7 @@ def missions() -> None:
         t.add_column("name", style="cyan", no_wrap=True)
         t.add_column("what it is")
         for f in files:
-            t.add_row(f.name, f.summary)
+            t.add_row(Text(f.name), Text(f.summary))
         console.print(t)
-    console.print(f"folder: {missions_dir()}")
+    console.print(f"folder: {missions_dir()}", markup=False, highlight=False)
     console.print("use a name where a file is expected, e.g. auvdock sim gyre (a file of that name wins)")
