@@ -40,8 +40,11 @@ app = typer.Typer(
     rich_markup_mode=None,
 )
 
-console = Console()
-err_console = Console(stderr=True)
+# emoji=False: ``:abc:`` in a port, a path or a mission name is text, never an emoji code (rich would
+# print ``--port udp:abc:14550`` with a picture in it); markup stays for our own styles, and every
+# piece of user text printed with markup on goes through :func:`rich.markup.escape`
+console = Console(emoji=False)
+err_console = Console(stderr=True, emoji=False)
 
 
 #: Set once a command has said why it stopped on Ctrl-C (see :func:`exit_interrupted`).
@@ -126,6 +129,17 @@ def load_or_exit(path: Path) -> Mission:
     except MissionError as e:
         fail_input(str(e))
         raise AssertionError("unreachable") from None
+
+
+def water_line(m: Mission) -> str:
+    """The water of a mission in a few words: the current, and the waves if there is a sea, e.g.
+    ``no current; waves JONSWAP Hs 1.75 m, Tp 9.44 s, ...: 560 components, Hm0 1.76 m, depth 70 m``
+    (a header that said only ``still water`` hid the sea); without a sea the current alone."""
+    flow = m.build_flow().describe()
+    sea = m.build_sea()
+    if sea is None:
+        return flow
+    return f"{'no current' if flow == 'still water' else flow}; waves {sea.describe()}"
 
 
 def _version_callback(value: bool) -> None:

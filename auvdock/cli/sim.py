@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -9,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import typer
 import yaml
+from rich.markup import escape
 from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
@@ -24,6 +26,7 @@ from auvdock.cli.app import (
     load_or_exit,
     output_dir,
     positive_timeout,
+    water_line,
 )
 from auvdock.config.mission import MissionError
 from auvdock.controllers.registry import controller_names
@@ -33,14 +36,56 @@ if TYPE_CHECKING:
     from auvdock.loop.simulation import Progress as SimProgress
 
 
-def _summary_table(title: str, outcome: dict[str, Any]) -> Table:
+#: How a run that did not dock ended, in words (the outcome's ``reason``).
+ENDINGS = {
+    "timeout": "not docked in time",
+    "lost_target": "gave up finding the dock",
+    "diverged": "the simulation diverged",
+}
+
+
+def ending_text(outcome: dict[str, Any], timeout_s: float | None = None) -> str:
+    """When and how a run ended, for the summary's ``time to dock`` row: ``19.25 s`` if it docked;
+    else e.g. ``collided at 12.40 s``, ``gave up finding the dock at 45.05 s``, ``timeout 75 s``."""
+    end = float(outcome.get("end_time_s", math.nan))
+    reason = str(outcome.get("reason", ""))
+    if outcome.get("docked"):
+        t = outcome.get("time_to_dock_s")
+        return f"{t:.2f} s" if isinstance(t, float) and math.isfinite(t) else "-"
+    if outcome.get("collided"):
+        return f"collided at {end:.2f} s"
+    if reason == "timeout":
+        return f"timeout {timeout_s if timeout_s is not None else end:.0f} s"
+    return f"{ENDINGS.get(reason, reason or 'ended')} at {end:.2f} s"
+
+
+def _why(outcome: dict[str, Any]) -> str:
+    reason = str(outcome.get("reason", ""))
+    words = ENDINGS.get(reason)
+    return escape(f"{reason}: {words}" if words else reason)
+
+
+def _losses_text(outcome: dict[str, Any]) -> str:
+    """The camera's sightings and losses of the dock: ``never seen by the camera``, or
+    ``2 (1 re-acquired); first seen at 8.35 s``."""
+    first = outcome.get("dock_first_seen_s")
+    if isinstance(first, float) and not math.isfinite(first):
+        return "never seen by the camera"
+    n, back = int(outcome["lost_track_events"]), int(outcome.get("lost_track_reacquired", 0))
+    text = f"{n} ({back} re-acquired)" if n else "0"
+    if isinstance(first, float):
+        text += f"; first seen at {first:.2f} s"
+    return text
+
+
+def _summary_table(title: str, outcome: dict[str, Any], timeout_s: float | None = None) -> Table:
     def f(key: str, scale: float = 1.0, fmt: str = "{:.3f}", unit: str = "") -> str:
         v = outcome.get(key)
         if v is None or (isinstance(v, float) and not np.isfinite(v)):
             return "-"
         return fmt.format(v * scale) + unit
 
-    t = Table(title=title, show_header=False)
+    t = Table(title=escape(title), show_header=False)
     t.add_column("figure", style="cyan")
     t.add_column("value")
     docked = bool(outcome.get("docked"))
@@ -54,20 +99,10 @@ def _summary_table(title: str, outcome: dict[str, Any]) -> Table:
                 f"{f('impact_speed_m_s', unit=' m/s')})",
             )
         else:
-            t.add_row("captured", f"[red]no[/red] ({outcome.get('reason', '')})")
+            t.add_row("captured", f"[red]no[/red] ({_why(outcome)})")
     else:
-        why = outcome.get("reason", "")
-        t.add_row("docked", "[green]yes[/green]" if docked else f"[red]no[/red] ({why})")
-    t.add_row(
-        "time to dock",
-        f("time_to_dock_s", fmt="{:.2f}", unit=" s")
-        if docked
-        else (
-            f"collided at {outcome.get('end_time_s', 0):.2f} s"
-            if outcome.get("collided")
-            else f"timeout {outcome.get('end_time_s', 0):.0f} s"
-        ),
-    )
+        t.add_row("docked", "[green]yes[/green]" if docked else f"[red]no[/red] ({_why(outcome)})")
+    t.add_row("time to dock", ending_text(outcome, timeout_s))
     t.add_row("path length", f("path_length_m", unit=" m"))
     t.add_row("closest approach", f("closest_approach_m", unit=" m"))
     t.add_row("contact speed", f("contact_speed_m_s", unit=" m/s"))
@@ -82,8 +117,7 @@ def _summary_table(title: str, outcome: dict[str, Any]) -> Table:
         errors = " / ".join(f"{outcome[k] * 100:.1f}" for k in keys)
         t.add_row(f"dock motion forecast error {ahead} s ahead", f"{errors} cm (RMS)")
     if "lost_track_events" in outcome:
-        n, back = int(outcome["lost_track_events"]), int(outcome.get("lost_track_reacquired", 0))
-        t.add_row("losses of the dock", f"{n} ({back} re-acquired)" if n else "0")
+        t.add_row("losses of the dock", _losses_text(outcome))
     if "flow_rmse_m_s" in outcome:
         t.add_row("flow estimate RMSE", f("flow_rmse_m_s", fmt="{:.4f}", unit=" m/s"))
         t.add_row("final flow estimate error", f("flow_final_error_m_s", fmt="{:.4f}", unit=" m/s"))
@@ -93,7 +127,8 @@ def _summary_table(title: str, outcome: dict[str, Any]) -> Table:
         f"{f('solve_time_max_s', 1e3, '{:.2f}')} ms",
     )
     t.add_row(
-        "solver trouble (steps)", f"{outcome.get('solver_failures', 0)} ({outcome.get('status_counts', '')})"
+        "solver trouble (steps)",
+        escape(f"{outcome.get('solver_failures', 0)} ({outcome.get('status_counts', '')})"),
     )
     t.add_row("wall time", f("wall_time_s", fmt="{:.2f}", unit=" s"))
     t.add_row("real-time factor", f("real_time_factor", fmt="{:.1f}", unit=" x"))
@@ -134,7 +169,7 @@ def sim(
 ) -> None:
     """Run one closed-loop docking simulation: HDF5 results, summary table and plots."""
     from auvdock.loop.simulation import simulate
-    from auvdock.results.plots import plot_run
+    from auvdock.results.plots import save_run_plots
     from auvdock.results.store import read_run
 
     m = load_or_exit(mission)
@@ -163,16 +198,26 @@ def sim(
         )
     name = m.controller.type + ("_paper" if m.controller.variant == "paper" else "")
     out_dir = output_dir(out if out is not None else Path(m.output.dir))
-    h5 = out_dir / f"{m.name}_{name}.h5"
+    stem = run_stem(m.name, m.controller.type, m.controller.variant)
+    h5 = out_dir / f"{stem}.h5"
     limit = m.docking.timeout_s if timeout is None else timeout
 
     from auvdock.controllers import resolve_solver
 
     solver = resolve_solver(m.controller.solver.name, m.controller.type, m.controller.variant)
     console.print(
-        f"[bold]{m.name}[/bold]: {m.build_flow().describe()}; controller [bold]{name}[/bold] "
+        f"[bold]{escape(m.name)}[/bold]: {escape(water_line(m))}; controller [bold]{name}[/bold] "
         f"(N = {m.controller.horizon_steps}, dt = {m.controller.dt_s} s, {solver})"
     )
+    earlier_files = [p for p in [h5, *sorted(out_dir.glob(f"{stem}_*.png"))] if p.is_file()]
+    if earlier_files:  # said before they go (compare and replay refuse; a rerun of sim replaces)
+        err_console.print(
+            f"note: replacing an earlier run's files in {out_dir}: "
+            + ", ".join(p.name for p in earlier_files),
+            markup=False,
+            highlight=False,
+            soft_wrap=True,
+        )
     from auvdock.loop.autopilot import build_autopilot
     from auvdock.loop.simulation import idealisations
     from auvdock.runtime.interrupts import SigintDeferred
@@ -219,13 +264,25 @@ def sim(
             exit_interrupted(f"interrupted: the steps so far are in {h5} (complete = False)")
         bar.update(task, completed=summary.outcome["end_time_s"])
 
-    console.print(_summary_table(f"{m.name} / {name}", summary.outcome))
-    console.print(f"results: {h5}")
+    console.print(_summary_table(f"{m.name} / {name}", summary.outcome, limit))
+    console.print(f"results: {h5}", markup=False, highlight=False, soft_wrap=True)
     if not no_plots:
-        paths = plot_run(read_run(h5), out_dir, prefix=f"{m.name}_{name}_", flow_field=m.build_flow())
-        console.print("plots: " + ", ".join(str(p) for p in paths))
+        written: list[Path] = []
+        try:
+            for path in save_run_plots(read_run(h5), out_dir, prefix=f"{stem}_", flow_field=m.build_flow()):
+                written.append(path)
+        except KeyboardInterrupt:
+            drawn = f"; plots written before it: {', '.join(str(p) for p in written)}" if written else ""
+            exit_interrupted(f"interrupted while drawing the plots: the results are complete in {h5}{drawn}")
+        console.print("plots: " + ", ".join(str(p) for p in written), markup=False, highlight=False)
     if not summary.docked:
         raise typer.Exit(code=1)
+
+
+def run_stem(mission_name: str, controller: str, variant: str | None = None) -> str:
+    """The file name (without suffix) of a run's results and the prefix of its plots:
+    ``gyre_optimized``, ``gyre_optimized_paper`` for the paper's variant."""
+    return f"{mission_name}_{controller}" + ("_paper" if variant == "paper" else "")
 
 
 def _file_stamp(path: Path) -> tuple[int, int] | None:
@@ -246,7 +303,7 @@ def plot(
 ) -> None:
     """Redraw the plots of a results file from the file alone."""
     from auvdock.config.mission import parse_mission
-    from auvdock.results.plots import plot_run
+    from auvdock.results.plots import save_run_plots
     from auvdock.results.store import read_run
 
     if not results.is_file():
@@ -257,11 +314,23 @@ def plot(
         fail_input(str(e) if str(results) in str(e) else f"{results}: {e}")
         raise AssertionError("unreachable") from None
     flow = None
+    stem = results.stem
     try:
-        flow = parse_mission(yaml.safe_load(r.mission_yaml), f"{results}:mission_yaml").build_flow()
+        stored = parse_mission(yaml.safe_load(r.mission_yaml), f"{results}:mission_yaml")
+        flow = stored.build_flow()
+        stem = run_stem(stored.name, stored.controller.type, stored.controller.variant)
     except (MissionError, yaml.YAMLError):
-        err_console.print("note: the stored mission could not be read; drawing the recorded flow instead")
+        err_console.print(
+            "note: the stored mission could not be read; drawing the recorded flow instead",
+            markup=False,
+            highlight=False,
+        )
     out_dir = output_dir(out if out is not None else results.parent)
-    paths = plot_run(r, out_dir, prefix=f"{results.stem}_", flow_field=flow)
-    for p in paths:
-        console.print(str(p))
+    written: list[Path] = []
+    try:  # named as sim names them: MISSION_CONTROLLER_*.png
+        for p in save_run_plots(r, out_dir, prefix=f"{stem}_", flow_field=flow):
+            written.append(p)
+            console.print(str(p), markup=False, highlight=False, soft_wrap=True)
+    except KeyboardInterrupt:
+        kept = f"{len(written)} plots written before it (listed above)" if written else "no plot written"
+        exit_interrupted(f"interrupted while drawing the plots: {kept}")

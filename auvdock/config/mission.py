@@ -513,7 +513,7 @@ class Mission(Strict):
     controller: settings_union() = Field(  # type: ignore[valid-type]
         default_factory=lambda: settings_for("oracle"),
         description="the docking controller: type (naive, kinematic, oracle, sequential, "
-        "optimized) and its settings; fields of other types are errors",
+        "optimized, ce) and its settings; fields of other types are errors",
     )
     estimation: Literal["truth", "filter"] = Field(
         default="truth",

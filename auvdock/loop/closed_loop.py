@@ -209,7 +209,8 @@ class LoopResult:
     finding the dock), or a :class:`LoopEnding`'s; ``t_end`` the last instant, s; ``contact`` the
     state (12,) in which docking (or the collision) was declared; ``touch`` the contact with the
     dock's body that ended the run; ``lost_tracks`` the camera's losses of the dock
-    (:class:`auvdock.loop.guidance.LostTrack`; None without a dock camera).
+    (:class:`auvdock.loop.guidance.LostTrack`; None without a dock camera) and
+    ``dock_first_seen_s`` the instant of its first fix of the dock, s (None: never seen).
     """
 
     reason: str
@@ -220,6 +221,7 @@ class LoopResult:
     wall_time_s: float = 0.0
     touch: Contact | None = None
     lost_tracks: list[LostTrack] | None = None
+    dock_first_seen_s: float | None = None
     verdict: Verdict | None = None
 
 
@@ -463,7 +465,7 @@ class LoopRecorder:
         if result.lost_tracks is not None:
             from auvdock.loop.guidance import lost_track_summary
 
-            outcome.update(lost_track_summary(result.lost_tracks))
+            outcome.update(lost_track_summary(result.lost_tracks, result.dock_first_seen_s))
         if self.relative_errors:
             e = np.asarray(self.relative_errors)
             outcome["relative_position_rmse_m"] = float(np.sqrt(np.mean(e**2)))
@@ -693,4 +695,5 @@ def run_closed_loop(
     if guidance is not None and guidance.camera:
         guidance.finish(result.t_end, result.reason)
         result.lost_tracks = list(guidance.events)
+        result.dock_first_seen_s = guidance.first_fix_t
     return result

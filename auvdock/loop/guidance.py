@@ -228,6 +228,8 @@ class Guidance:
         self.events: list[LostTrack] = []
         self._search_t0: float | None = None
         self._last_fix: float | None = None
+        #: The instant of the camera's first fix of the dock, s (None: not seen yet).
+        self.first_fix_t: float | None = None
 
     def _set(self, phase: str, t: float, est: Estimate) -> None:
         s = self.settings
@@ -274,6 +276,8 @@ class Guidance:
                 ev = self.events[-1]
                 ev.t_end, ev.ended = fix, f"reacquired in {self.phase}"
             self._last_fix = fix
+            if self.first_fix_t is None:
+                self.first_fix_t = float(fix)
         if self.phase == "given_up":
             phase = "given_up"
         elif fix is None:  # never seen
@@ -329,12 +333,14 @@ class Guidance:
         self._close_loss(t, f"not reacquired ({how})")
 
 
-def lost_track_summary(events: list[LostTrack]) -> dict[str, object]:
+def lost_track_summary(events: list[LostTrack], first_fix_t: float | None = None) -> dict[str, object]:
     """Outcome figures of a run's losses: their number, how many were re-acquired, the longest
-    gap (s), and how each ended (``"3.20-4.85 s: reacquired in back_off; ..."``)."""
+    gap (s), and how each ended (``"3.20-4.85 s: reacquired in back_off; ..."``); and the instant
+    the camera first saw the dock (``dock_first_seen_s``, s; NaN: never seen, so no loss either)."""
     back = [e for e in events if e.ended.startswith("reacquired")]
     longest = max((e.duration_s for e in events if e.t_end is not None), default=math.nan)
     return {
+        "dock_first_seen_s": math.nan if first_fix_t is None else float(first_fix_t),
         "lost_track_events": len(events),
         "lost_track_reacquired": len(back),
         "lost_track_longest_s": float(longest),

@@ -11,6 +11,8 @@ north on the vertical one (a map), and the 3-D view draws "down" downwards.
 from __future__ import annotations
 
 import math
+import os
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -24,7 +26,7 @@ from matplotlib.ticker import MaxNLocator
 from auvdock.results.store import RunResults
 from auvdock.vehicle.state import POS
 
-__all__ = ["plot_run", "run_figures", "thrust_limits_of", "FlowFieldLike"]
+__all__ = ["plot_run", "save_run_plots", "run_figures", "thrust_limits_of", "FlowFieldLike"]
 
 _GRID_ARROWS = 17  # quiver arrows along the longer side of the top view's grid
 _PATH_ARROWS = 20  # recorded-flow arrows along the path when no flow field is given
@@ -119,15 +121,40 @@ def plot_run(
     ValueError
         If the run has no steps, or an extra series has the wrong shape.
     """
+    return list(
+        save_run_plots(
+            results, out_dir, prefix=prefix, flow_field=flow_field, dpi=dpi, thrust_limits=thrust_limits
+        )
+    )
+
+
+def save_run_plots(
+    results: RunResults,
+    out_dir: str | Path,
+    *,
+    prefix: str = "",
+    flow_field: FlowFieldLike | None = None,
+    dpi: int = 120,
+    thrust_limits: tuple[np.ndarray, np.ndarray] | None = None,
+) -> Iterator[Path]:
+    """:func:`plot_run`, one file at a time: yields each PNG's path once it is complete on disk.
+
+    Each file is written beside its name and then renamed onto it, so an interruption (Ctrl-C)
+    leaves every file either whole or not there (an earlier file of that name untouched), and the
+    caller knows which were written: the ones yielded.  Parameters and errors as :func:`plot_run`.
+    """
     figures = run_figures(results, flow_field=flow_field, thrust_limits=thrust_limits)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    paths = []
     for name, fig in figures:
         path = out / f"{prefix}{name}.png"
-        fig.savefig(path, dpi=dpi)
-        paths.append(path)
-    return paths
+        part = path.with_name(f".{path.name}.part")
+        try:
+            fig.savefig(part, dpi=dpi, format="png")
+            os.replace(part, path)
+        finally:
+            part.unlink(missing_ok=True)
+        yield path
 
 
 def run_figures(
@@ -361,6 +388,26 @@ def _top_view(results: RunResults, flow_field: FlowFieldLike | None) -> Figure:
     if ok.size:
         d = dock[ok[-1]]
         ax.scatter([d[1]], [d[0]], marker="*", s=250, color="gold", edgecolors="k", zorder=4, label="dock")
+    believed = _believed_dock(results)
+    if believed is not None:
+        ax.plot(
+            believed[:, 1], believed[:, 0], color="darkorange", ls="--", lw=1.2, zorder=3,
+            label="dock where the vehicle believed it",
+        )  # fmt: skip
+        ax.scatter(
+            [believed[-1, 1]], [believed[-1, 0]], marker="*", s=250, facecolors="none",
+            edgecolors="darkorange", linewidths=1.5, zorder=4, label="believed dock (final)",
+        )  # fmt: skip
+    seen = _new_fix_rows(results)
+    if seen is not None and seen.any():
+        ax.scatter(
+            pos[seen, 1],
+            pos[seen, 0],
+            s=10,
+            color="tab:green",
+            zorder=4,
+            label="where the camera saw the dock",
+        )
     ax.set_xlabel("east [m]")
     ax.set_ylabel("north [m]")
     ax.set_aspect("equal", adjustable="datalim")
@@ -415,6 +462,32 @@ def _distance(results: RunResults) -> Figure:
     t_dock = _finite_attr(results, "time_to_dock_s")
     if t_dock is not None:
         ax.axvline(t_dock, color="tab:green", ls=":", label=f"docked at {t_dock:.1f} s")
+    believed = _believed_distance(results)
+    if believed is not None:
+        ax.plot(
+            results.time_s,
+            believed,
+            color="darkorange",
+            ls="--",
+            lw=1.0,
+            label="distance as the vehicle believed it",
+        )
+    seen = _new_fix_rows(results)
+    if seen is not None and seen.any():
+        t = results.time_s[seen]
+        ax.plot(
+            t, np.zeros_like(t), "|", color="tab:green", ms=12, mew=1.0, clip_on=False,
+            label="camera fixes of the dock",
+        )  # fmt: skip
+    elif seen is not None:
+        ax.text(
+            0.02,
+            0.04,
+            "the camera never saw the dock",
+            transform=ax.transAxes,
+            fontsize="small",
+            color="tab:red",
+        )
     ax.set_xlabel("time [s]")
     ax.set_ylabel("distance to dock [m]")
     ax.set_ylim(bottom=0.0)
@@ -422,6 +495,41 @@ def _distance(results: RunResults) -> Figure:
     ax.legend(loc="best", fontsize="small")
     ax.set_title(_title(results, "Distance to dock"), fontsize="medium")
     return fig
+
+
+def _believed_dock(results: RunResults) -> np.ndarray | None:
+    """The docking point where the navigation filter placed it (extra ``estimated_dock_position_m``,
+    NED m), its finite rows (k, 3); None without it."""
+    if "estimated_dock_position_m" not in results.extras:
+        return None
+    est = _extra(results, "estimated_dock_position_m", (3,))
+    ok = _finite_rows(est)
+    return est[ok] if ok.size else None
+
+
+def _believed_distance(results: RunResults) -> np.ndarray | None:
+    """The distance to the dock by the estimate (T,), m: the estimated position (extra
+    ``estimated_state``) to the believed docking point; NaN where either is unknown."""
+    ex = results.extras
+    if "estimated_dock_position_m" not in ex or "estimated_state" not in ex:
+        return None
+    est_dock = _extra(results, "estimated_dock_position_m", (3,))
+    est_pos = np.asarray(ex["estimated_state"], dtype=float)[:, POS]
+    if est_pos.shape != est_dock.shape:
+        return None
+    d = np.linalg.norm(est_pos - est_dock, axis=1)
+    return d if np.isfinite(d).any() else None
+
+
+def _new_fix_rows(results: RunResults) -> np.ndarray | None:
+    """Rows (T,) bool at which a new camera fix of the dock had arrived (the extra ``dock_fix_age_s``
+    fell, or became known); None for a run without the dock camera's guidance (no losses counted)."""
+    if "dock_fix_age_s" not in results.extras or "lost_track_events" not in results.attrs:
+        return None
+    age = _extra(results, "dock_fix_age_s", ())
+    before = np.concatenate([[np.nan], age[:-1]])
+    newer = np.isfinite(age) & (~np.isfinite(before) | (age < before))
+    return np.asarray(newer, dtype=bool)
 
 
 def _same_series_groups(a: np.ndarray, atol: float) -> list[list[int]]:

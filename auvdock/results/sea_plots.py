@@ -115,13 +115,15 @@ def _dock_entry_figure(results: RunResults) -> Figure | None:
     rs = np.array([body.mouth_radius_m, body.cradle_radius_m, body.cradle_radius_m])
     W = body.structure_half_width_m
     x_end = body.back_end_x_m
+    ok = np.all(np.isfinite(nose), axis=1)
+    # one vertical span for both panels (their boxes then line up under the shared x axis)
+    span = max(W, float(np.nanmax(np.abs(nose[ok, 1:3]))) if ok.any() else W) + 0.2
     for ax, j, lab in ((top, 1, "y_d, starboard (m)"), (side, 2, "z_d, down (m)")):
         ax.fill_between([x_mouth, x_end], [-W, -W], [W, W], color="0.85", label="frame (solid)")
         ax.fill_between(xs, -rs, rs, color="white")
         ax.plot(xs, rs, color="k", lw=1.5)
         ax.plot(xs, -rs, color="k", lw=1.5, label="funnel and cradle walls")
         ax.fill_between([x_back, x_end], [-W, -W], [W, W], color="0.45", label="back plate")
-        ok = np.all(np.isfinite(nose), axis=1)
         ax.plot(nose[ok, 0], nose[ok, j], color="tab:blue", lw=1.5, label="vehicle nose")
         if ok.any():
             last = nose[np.flatnonzero(ok)[-1]]
@@ -140,9 +142,10 @@ def _dock_entry_figure(results: RunResults) -> Figure | None:
         ax.set_ylabel(lab)
         lo = min(float(np.nanmin(nose[ok, 0])) if ok.any() else x_mouth, x_mouth) - 0.3
         ax.set_xlim(lo, x_end + 0.2)
-        span = max(W, float(np.nanmax(np.abs(nose[ok, j]))) if ok.any() else W) + 0.2
         ax.set_ylim(-span, span)
-        ax.set_aspect("equal", adjustable="datalim")
+        # equal scale with both limits kept: the panels shrink to fit (not the shared x limits
+        # moved, which matplotlib warned about on every figure), to the same box as the spans agree
+        ax.set_aspect("equal", adjustable="box")
     side.invert_yaxis()
     side.set_xlabel("x_d along the docked heading (m)")
     top.legend(loc="upper left", fontsize="small", bbox_to_anchor=(1.01, 1.0))

@@ -302,7 +302,8 @@ class WaveComponents:
         un, ue = self.current_ned_m_s
         cur = "" if un == 0 and ue == 0 else f", riding a ({un:g}, {ue:g}) m/s current"
         hm0 = self.significant_height_m
-        return f"{self.label}: {self.n_components} components, Hm0 {hm0:.3g} m, {depth}{cur}"
+        n = self.n_components
+        return f"{self.label}: {n} component{'' if n == 1 else 's'}, Hm0 {hm0:.3g} m, {depth}{cur}"
 
     # --- kinematics (numpy) ------------------------------------------------------------------
     def _phase(self, north: np.ndarray, east: np.ndarray, t: np.ndarray) -> np.ndarray:
