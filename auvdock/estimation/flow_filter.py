@@ -324,7 +324,8 @@ class EstimatorStep:
     flow_ned: np.ndarray
     covariance: np.ndarray
     information: float
-    #: (4,): the accelerometer rows (body axes, m/s^2) and the depth-rate row (m/s) of z - H f
+    #: (4,): the accelerometer rows (body axes, m/s^2) and the depth-rate row (m/s) of z - H f; NaN
+    #: on a step without those readings
     innovation: np.ndarray
     state: np.ndarray  # estimated state (12,), over-ground velocity
 
@@ -452,9 +453,10 @@ class FlowEstimator:
         eta = np.asarray(eta, dtype=float)
         nu_r = np.asarray(nu_r, dtype=float)
         R_nb = self.R(eta[ATT])
-        # the innovation recorded: the accelerometer and depth-rate rows' (0: no such reading this step),
-        # not the pose-motion update's that may follow (another measurement, in NED)
-        innovation = np.zeros(4)
+        # the innovation recorded: the accelerometer and depth-rate rows' (NaN: no such reading this
+        # step; a 0 would read as a perfect one), not the pose-motion update's that may follow (another
+        # measurement, in NED)
+        innovation = np.full(4, np.nan)
         if self.kf is None:
             f0 = R_nb.T @ self.prior_flow_ned
             self.kf = FlowKalmanFilter(
