@@ -264,6 +264,7 @@ class VehicleSim:
 
         self._lock = threading.RLock()
         self._stop_event = self.clock.event()
+        self._ended = self.clock.event()  # the simulator thread's ending (the truth file) is done
         self._thread: threading.Thread | None = None
         self._conn: mavutil.mavfile | None = None  # the pymavlink connection once started
         self._started = False
@@ -501,8 +502,11 @@ class VehicleSim:
         if not self._started:
             self.start()
         try:
-            while self._thread is not None and self._thread.is_alive():
-                self.clock.join(self._thread, 0.2)
+            # waits on an event, not on a join: on Python 3.11 a join that Ctrl-C interrupts leaves the
+            # thread marked as ended while it still runs, so that stop() would not wait for its ending
+            # (the truth file's) and the process would exit in the middle of it
+            while self._thread is not None and self._thread.is_alive() and not self._ended.wait(0.2):
+                pass
         except KeyboardInterrupt:
             pass
         finally:
@@ -551,9 +555,12 @@ class VehicleSim:
             self._error = e
             self._stop_event.set()
         finally:
-            if truth is not None:
-                events = "; ".join(f"{e.t:.2f} s {e.kind} ({e.detail})" for e in self.events)
-                truth.end(self._error is not None, events, self.t)
+            try:
+                if truth is not None:
+                    events = "; ".join(f"{e.t:.2f} s {e.kind} ({e.detail})" for e in self.events)
+                    truth.end(self._error is not None, events, self.t)
+            finally:
+                self._ended.set()
 
     def _wait_until(self, when: float) -> None:
         """Wait until ``when`` (the clock's time, s), handling messages as they arrive."""
