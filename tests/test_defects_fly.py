@@ -1,14 +1,23 @@
-"""``fly`` / ``replay`` defects: no heartbeat says what to check; the tlog of a flight that ended
-before its first control step is said to have nothing to replay (not "not written by auvdock
-fly").  In simulated time on 127.0.0.1 (tests/helpers/loopback.py)."""
+"""``fly`` / ``replay`` / ``vehicle-sim`` / ``truth-check`` defects: no heartbeat says what to check; the
+tlog of a flight that ended before its first control step is said to have nothing to replay (not "not
+written by auvdock fly"); what a new user trips over (issue 37): a mission fly refuses is refused before
+the banner, with nothing written; a host that does not resolve is said at once; vehicle-sim without
+events says so; truth-check on a truth file still being written, or on a sim results file, says what
+it is.  In simulated time on 127.0.0.1 (tests/helpers/loopback.py)."""
 
 from __future__ import annotations
 
-import pytest
-from helpers.loopback import TANK, Loopback, free_port, write_mission
+import os
+import subprocess
+import sys
+import textwrap
 
+import pytest
+from helpers.loopback import HOST, ROOT, TANK, Loopback, free_port, write_mission
+
+import auvdock.standins.vehicle_sim as vehicle_sim_module
 from auvdock.cli import app
-from auvdock.fly.link import no_heartbeat_hint
+from auvdock.fly.link import connection_string, no_heartbeat_hint
 
 
 @pytest.fixture
@@ -80,3 +89,185 @@ def test_a_tlog_not_written_by_fly_is_still_called_so(tmp_path) -> None:
     empty.write_bytes(b"")
     with pytest.raises(ReplayError, match="no auvdock step markers"):
         replay(empty, load_mission(TANK), tmp_path / "r.h5")
+
+
+# ------------------------------------------------------------------- issue 37: what a new user trips over
+def test_a_mission_fly_refuses_is_refused_before_the_banner_and_writes_nothing(loop, tmp_path) -> None:
+    """A: tank_0p6hz (the simulated dock camera) with --arm: one line, exit 2, nothing said to be armed,
+    no link opened: no tlog, no results."""
+    mission = ROOT / "missions" / "tank_0p6hz.yaml"
+    res = loop.runner.invoke(
+        app, ["fly", str(mission), "--port", f"udpin:{HOST}:{free_port()}", "--arm", "--out", str(tmp_path)]
+    )
+    assert res.exit_code == 2, res.output
+    assert res.stdout == ""
+    assert res.stderr == (
+        f"error: {mission}: sensors.dock_camera: the simulated dock camera is for sim; fly finds the dock "
+        "with a camera through dock.source: camera (camera section), or flies on the vehicle's own position "
+        "(tank_positioned)\n"
+    )
+    assert "ARMED" not in res.output
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_the_arm_banner_says_it_arms_when_the_checks_pass(loop, tmp_path) -> None:
+    """A: before connecting nothing is armed; the banner of --arm says what will happen."""
+    port = free_port()
+    res = loop.fly(port, tmp_path, "--arm", "--connect-timeout", "1")
+    assert res.exit_code == 3, res.output  # no vehicle
+    assert res.stdout.splitlines()[0] == (
+        f"fly tank_positioned / oracle on udpin:{HOST}:{port}: --arm: arming when the pre-flight checks pass"
+    )
+    assert "ARMED" not in res.output
+
+
+def test_a_host_that_does_not_resolve_is_said_at_once(loop, tmp_path) -> None:
+    """D: fly, vehicle-sim and sitl-physics name the host in one line and exit 2, before any wait (a name
+    under .invalid never resolves, RFC 6761: no network is asked)."""
+    port = "udpout:notahost.invalid:14550"
+    with pytest.raises(ValueError, match="^cannot resolve host 'notahost.invalid'$"):
+        connection_string(port)
+    assert connection_string(port, resolve=False) == port
+    res = loop.runner.invoke(app, ["fly", "tank_positioned", "--port", port, "--out", str(tmp_path)])
+    assert res.exit_code == 2, res.output
+    assert res.stdout == ""
+    assert res.stderr == f"error: --port {port}: cannot resolve host 'notahost.invalid'\n"
+    assert loop.clock.now() == 0.0  # no connect timeout waited, even in simulated time
+    assert list(tmp_path.iterdir()) == []
+    port = "udpin:notahost.invalid:14550"
+    res = loop.runner.invoke(app, ["vehicle-sim", "--port", port])
+    assert res.exit_code == 2, res.output
+    assert res.stderr == f"error: --port {port}: cannot resolve host 'notahost.invalid'\n"
+    for option, value in [("--listen", "notahost.invalid:9002"), ("--camera", "udp:notahost.invalid:5600")]:
+        res = loop.runner.invoke(app, ["sitl-physics", "tank_camera", option, value])
+        assert res.exit_code == 2, res.output
+        assert res.stderr == f"error: {option} {value}: cannot resolve host 'notahost.invalid'\n"
+
+
+def test_vehicle_sim_without_events_says_no_events(loop, monkeypatch) -> None:
+    """E: stopped before anyone armed it: "no events", not an empty "events: "."""
+    run_forever = vehicle_sim_module.VehicleSim.run_forever
+
+    def briefly(self) -> None:  # as Ctrl-C after 0.3 s of the vehicle's time
+        def stop() -> None:
+            self.clock.sleep(0.3)
+            self.stop()
+
+        self.start()
+        self.clock.start_thread(stop, "stopper")
+        run_forever(self)
+
+    monkeypatch.setattr(vehicle_sim_module.VehicleSim, "run_forever", briefly)
+    res = loop.runner.invoke(app, ["vehicle-sim", "--port", f"udpout:{HOST}:{free_port()}"])
+    assert res.exit_code == 0, res.output + res.stderr
+    assert res.stdout.splitlines()[-1] == "stopped at t = 0.3 s; no events"
+
+
+_HOLD_TRUTH_OPEN = textwrap.dedent(
+    """
+    import sys
+    from auvdock.config.mission import load_mission
+    from auvdock.standins.truth_record import TruthRecord
+
+    m = load_mission(sys.argv[2])
+    truth = TruthRecord.for_stand_in(sys.argv[1], "vehicle-sim", m, {}, m.build_vehicle().n_thrusters)
+    print("open", flush=True)
+    sys.stdin.readline()  # until told to stop
+    truth.end(False, "", 0.0)
+    """
+)
+
+
+def test_truth_check_on_a_truth_file_still_being_written(tmp_path) -> None:
+    """C: the truth file of a running vehicle-sim is locked by HDF5 while it is written (its writer's
+    lock, in another process: TruthRecord as vehicle-sim opens it); truth-check says so in one line."""
+    from typer.testing import CliRunner
+
+    from auvdock.results.store import RunWriter
+
+    flight = tmp_path / "flight.h5"  # a results file (its rows do not matter: the truth is not read)
+    RunWriter(flight, mission_yaml="", mission_name="tank_positioned", controller="oracle").close()
+    truth = tmp_path / "truth.h5"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    writer = subprocess.Popen(
+        [sys.executable, "-c", _HOLD_TRUTH_OPEN, str(truth), str(TANK)],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
+    try:
+        assert writer.stdout is not None and writer.stdout.readline() == "open\n"
+        res = CliRunner().invoke(app, ["truth-check", str(flight), str(truth)])
+    finally:
+        writer.communicate("stop\n", timeout=60)
+    assert res.exit_code == 2, res.output
+    assert res.stdout == ""
+    assert res.stderr == (
+        f"error: {truth}: still being written (is vehicle-sim or sitl-physics still running? stop it first)\n"
+    )
+    assert writer.returncode == 0
+
+
+def test_truth_check_on_a_sim_results_file_says_what_it_is(tmp_path) -> None:
+    """F: a sim run is not a flight (it was not "recorded before" anything); nor is a truth file."""
+    from typer.testing import CliRunner
+
+    from auvdock.config.mission import load_mission
+    from auvdock.standins.truth_record import TruthRecord
+
+    runner = CliRunner()
+    args = ["sim", "still", "-c", "naive", "--timeout", "0.1", "--no-plots", "--out", str(tmp_path)]
+    res = runner.invoke(app, args)
+    assert res.exit_code == 1, res.output  # ran, not docked in 0.1 s
+    run = tmp_path / "still_naive.h5"
+    truth = tmp_path / "truth.h5"
+    m = load_mission(TANK)
+    TruthRecord.for_stand_in(truth, "vehicle-sim", m, {}, 8).end(False, "", 0.0)
+    res = runner.invoke(app, ["truth-check", str(run), str(truth)])
+    assert res.exit_code == 2, res.output
+    assert res.stderr == (
+        f"error: {run}: a sim results file, not a fly flight; truth-check scores the results file of a fly "
+        "session flown against vehicle-sim (or sitl-physics) with --truth-out, on that truth file\n"
+    )
+    res = runner.invoke(app, ["truth-check", str(truth), str(truth)])
+    assert res.exit_code == 2, res.output
+    assert res.stderr == (
+        f"error: {truth}: a truth file (--truth-out), not a fly flight; truth-check takes the flight's "
+        "results file (fly's .h5) first, then the truth file\n"
+    )
+
+
+def test_vehicle_sim_stopped_by_ctrl_c_completes_its_truth_file(tmp_path) -> None:
+    """Ctrl-C (SIGINT) to a vehicle-sim process writing --truth-out: the file is complete when it has said
+    "stopped" (on Python 3.11 a Ctrl-C that interrupted the wait for the simulator thread left the thread
+    marked as ended while it still wrote, and the process exited in the middle: complete = False).  A real
+    process on the wall clock and loopback, as Ctrl-C comes from outside (tests/test_fly_sigint.py)."""
+    import signal
+    import time
+
+    from auvdock.results.store import read_run
+
+    truth = tmp_path / "truth.h5"
+    env = {**os.environ, "AUVDOCK_COMPILE": "never", "PYTHONUNBUFFERED": "1"}
+    env["PYTHONPATH"] = os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])
+    cmd = [sys.executable, "-m", "auvdock.cli", "vehicle-sim", "tank_positioned",
+           "--port", f"udpout:{HOST}:{free_port()}", "--truth-out", str(truth)]  # fmt: skip
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
+    try:
+        seen = ""
+        while "Ctrl-C to stop" not in seen:  # the banner: the simulator runs
+            line = proc.stdout.readline() if proc.stdout is not None else ""
+            assert line, seen
+            seen += line
+        time.sleep(1.0)
+        proc.send_signal(signal.SIGINT)
+        out, _ = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 0, out
+    assert "stopped at t = " in out and "Traceback" not in out, out
+    r = read_run(truth)
+    assert r.attrs["complete"] and r.outcome()["reason"] == "stopped"

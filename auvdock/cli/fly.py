@@ -8,6 +8,7 @@ simulated time.
 
 from __future__ import annotations
 
+import contextlib
 import time
 from pathlib import Path
 
@@ -99,6 +100,7 @@ def fly(
     """
     from auvdock.fly import FlySession
     from auvdock.fly.link import MavlinkLink, connection_string
+    from auvdock.fly.session import check_flyable
 
     m = load_or_exit(mission)
     if check_estimation(estimation) is not None:
@@ -109,27 +111,44 @@ def fly(
         connection_string(port)
     except ValueError as e:
         fail_input(f"--port {port}: {e}")
+    try:  # a mission fly cannot fly is refused before anything is said, opened or written
+        check_flyable(m, controller)
+    except MissionError as e:
+        fail_input(str(e))
     out_dir = output_dir(out if out is not None else Path(m.output.dir))
     stamp = time.strftime("%Y%m%d-%H%M%S")
     name = controller or m.controller.type
     h5 = out_dir / f"{m.name}_{name}_fly_{stamp}.h5"
     tlog = h5.with_suffix(".tlog")
-    mode = "[bold red]ARMED[/bold red]" if arm else "[yellow]dry run (no --arm): neutral thrust only[/yellow]"
-    console.print(f"[bold]fly[/bold] {m.name} / {name} on {port}: {mode}")
+    # nothing is armed yet: --arm arms after the vehicle's parameters and the pre-flight checks pass
+    mode = (
+        "[bold red]--arm: arming when the pre-flight checks pass[/bold red]"
+        if arm
+        else "[yellow]dry run (no --arm): neutral thrust only[/yellow]"
+    )
+    console.print(f"[bold]fly[/bold] {m.name} / {name} on {port}: {mode}", soft_wrap=True)
     try:
         link = MavlinkLink(port, sysid=sysid, tlog=tlog, clock=clock)
     except (OSError, ValueError) as e:
         fail_input(f"--port {port}: {e}")
         raise AssertionError("unreachable") from None
+
+    def close_unused() -> None:
+        """Close the link of a session that never ran, and its tlog with it when nothing was recorded."""
+        link.close()
+        with contextlib.suppress(OSError):
+            if tlog.stat().st_size == 0:
+                tlog.unlink()
+
     try:
         session = FlySession(m, link, arm=arm, out=h5, controller=controller, timeout_s=timeout,
                              connect_timeout_s=connect_timeout)  # fmt: skip
     except MissionError as e:
-        link.close()
+        close_unused()
         fail_input(str(e))
         raise AssertionError("unreachable") from None
     except KeyboardInterrupt:
-        link.close()
+        close_unused()
         exit_interrupted("interrupted: before connecting to the vehicle; nothing was sent")
     last = [-1e9]
 
@@ -231,7 +250,10 @@ def vehicle_sim(
     except (OSError, ValueError) as e:
         fail_input(f"--port {port}: {e}")
     truth = f"; truth in {truth_out}" if truth_out is not None and truth_out.is_file() else ""
-    console.print(f"stopped at t = {sim.t:.1f} s; events: " + ", ".join(e.kind for e in sim.events) + truth)
+    events = "events: " + ", ".join(e.kind for e in sim.events) if sim.events else "no events"
+    console.print(
+        f"stopped at t = {sim.t:.1f} s; {events}{truth}", markup=False, highlight=False, soft_wrap=True
+    )
 
 
 @app.command("truth-check")

@@ -119,6 +119,7 @@ def sitl_physics(
     ),
 ) -> None:
     """Be the physics of ArduPilot SITL (ardusub --model JSON): the real ArduSub flies in auvdock's ocean."""
+    from auvdock.fly.link import check_host
     from auvdock.standins.sitl_physics import SitlPhysics, parse_listen
 
     m = load_or_exit(mission)
@@ -128,6 +129,7 @@ def sitl_physics(
         fail_input(f"--duration {duration:g}: must be a positive time, s")
     try:
         address = parse_listen(listen)
+        check_host(address[0])
     except ValueError as e:
         fail_input(f"--listen {listen}: {e}")
         raise AssertionError("unreachable") from None
@@ -135,6 +137,7 @@ def sitl_physics(
     if camera is not None:
         try:
             target = parse_camera_target(camera)
+            check_host(target[0])
         except ValueError as e:
             fail_input(f"--camera {camera}: {e}")
     where = m.source or mission

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import inspect
 import re
+import socket
 import struct
 import threading
 from collections.abc import Callable
@@ -41,7 +42,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 from auvdock.runtime.clock import Clock, ClockClosedError, wall_clock
 from auvdock.vehicle.ardusub import MODES, NEUTRAL_CHANNELS
 
-__all__ = ["LinkError", "MavlinkLink", "connection_string", "for_session", "PILOT_INPUT_TYPES"]
+__all__ = ["LinkError", "MavlinkLink", "connection_string", "check_host", "for_session", "PILOT_INPUT_TYPES"]
 
 mavlink = mavutil.mavlink
 UINT16_MAX = 65535
@@ -89,19 +90,39 @@ def _port_number(text: str) -> int:
     return n
 
 
-def connection_string(port: str) -> str:
+def check_host(host: str) -> None:
+    """Whether ``host`` (a name or an address) resolves, by the system's resolver (``getaddrinfo``: an
+    address at once, a name by the hosts file and DNS, never a connection).  A name under ``invalid``
+    never resolves (RFC 6761) and is refused without asking.
+
+    Raises
+    ------
+    ValueError
+        ``cannot resolve host 'HOST'``.
+    """
+    name = host.rstrip(".").lower()
+    if name == "invalid" or name.endswith(".invalid"):
+        raise ValueError(f"cannot resolve host {host!r}")
+    try:
+        socket.getaddrinfo(host, None)
+    except (OSError, UnicodeError):  # socket.gaierror; a name IDNA cannot encode
+        raise ValueError(f"cannot resolve host {host!r}") from None
+
+
+def connection_string(port: str, *, resolve: bool = True) -> str:
     """The pymavlink connection string for ``--port``, checked.
 
     ``udp:PORT`` (the short form, which pymavlink rejects) means listen on ``0.0.0.0:PORT``,
     where BlueOS sends the vehicle's MAVLink; ``udpin:``, ``udpout:``, ``udp:``, ``udpbcast:``,
     ``tcp:`` and ``tcpin:`` with ``HOST:PORT``, and a serial device (``/dev/ttyACM0``,
-    ``COM3``) with an optional ``,BAUD``, pass unchanged.
+    ``COM3``) with an optional ``,BAUD``, pass unchanged.  With ``resolve`` the HOST must resolve
+    (:func:`check_host`), so that a mistyped name is said at once, not after the connect timeout.
 
     Raises
     ------
     ValueError
         Naming the problem (an empty string, an unknown form, a port that is not a number or
-        outside 1..65535, a baud rate that is not a positive number).
+        outside 1..65535, a host that does not resolve, a baud rate that is not a positive number).
     """
     p = port.strip()
     if not p:
@@ -112,6 +133,8 @@ def connection_string(port: str) -> str:
     m = _NETWORK.match(p)
     if m:
         _port_number(m.group(3))
+        if resolve:
+            check_host(m.group(2))
         return p
     m = _SERIAL.match(p)
     if m:
@@ -125,7 +148,7 @@ def no_heartbeat_hint(port: str) -> str:
     """What to check when no ArduSub heartbeat came on ``port`` (``--port``): the clause after
     "no ArduSub heartbeat on PORT within T s" in the error line."""
     try:
-        url = connection_string(port)
+        url = connection_string(port, resolve=False)
     except ValueError:
         url = port
     m = _NETWORK.match(url)
@@ -187,12 +210,18 @@ class MavlinkLink:
         self._acks: list[tuple[int, int, float]] = []
         self._stop = self.clock.event()
         self._threads: list[threading.Thread] = []
-        self._tlog = open(tlog, "wb") if tlog is not None else None  # noqa: SIM115 -- closed in close()
+        self._tlog: Any = None
         self.target_system = 1
         self.target_component = 1
         self.conn = mavutil.mavlink_connection(
             self.url, source_system=self.sysid, source_component=GCS_COMPONENT, dialect="ardupilotmega"
         )
+        # the tlog once the connection is open: a port that does not open leaves no empty tlog behind
+        try:
+            self._tlog = open(tlog, "wb") if tlog is not None else None  # noqa: SIM115 -- closed in close()
+        except OSError:
+            self.conn.close()
+            raise
         # speak MAVLink 2, as ArduSub does, on this connection only (pymavlink's automatic
         # upgrade would switch the whole process and replace conn.mav, losing our callback)
         self.conn.mav = mavlink2.MAVLink(self.conn, srcSystem=self.sysid, srcComponent=GCS_COMPONENT)

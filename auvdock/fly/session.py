@@ -107,11 +107,12 @@ from auvdock.loop.verdict import MarginVerdict, Verdict
 from auvdock.runtime.clock import Clock
 from auvdock.runtime.interrupts import SigintDeferred, interrupt_name
 from auvdock.runtime.stderr_capture import StderrCapture
+from auvdock.vehicle import Vehicle
 from auvdock.vehicle.actuators import ArduSubActuators
 from auvdock.vehicle.ardusub import MODES, NEUTRAL_CHANNELS
 from auvdock.world.dock import ClockedDock, TrackedDock
 
-__all__ = ["FlySession", "FlyResult", "FlyAbortError", "FlyTakeoverError", "EXIT_CODES"]
+__all__ = ["FlySession", "FlyResult", "FlyAbortError", "FlyTakeoverError", "EXIT_CODES", "check_flyable"]
 
 #: ArduSub's VECTORED_6DOF frame (the BlueROV2 Heavy), the only one the channel mapping knows.
 N_THRUSTERS = 8
@@ -226,6 +227,65 @@ class _SigintLatch:
             self._installed = False
 
 
+def check_flyable(mission: Mission, controller: str | None = None) -> Vehicle:
+    """Whether fly can fly ``mission`` (with ``controller``, default the mission's), on the mission
+    alone: no link, nothing opened or written.  The one place of these rules: ``auvdock fly`` asks it
+    before it says anything or opens the link and the tlog, and :class:`FlySession` (and so replay)
+    builds on it.  Returns the mission's vehicle model (checked).
+
+    Raises
+    ------
+    MissionError
+        Naming the mission's field: a vehicle that is not an 8-thruster BlueROV2 Heavy (ArduSub
+        VECTORED_6DOF), a flow-estimating controller with ``estimation: truth`` (the paper's simulated
+        sensing of the water-relative velocity, which no vehicle has), a WEC dock (the simulated sea's),
+        the simulated dock camera or dock telemetry (sim's sensors), a camera file that is missing or bad.
+    """
+    where = mission.source or mission.name
+    vehicle = mission.build_vehicle()
+    if vehicle.n_thrusters != N_THRUSTERS:
+        raise MissionError(
+            where,
+            "vehicle",
+            f"fly flies ArduSub's VECTORED_6DOF frame (8 thrusters, BlueROV2 Heavy); "
+            f"{vehicle.name} has {vehicle.n_thrusters}",
+        )
+    name, _ = split_controller(controller or mission.controller.type)
+    if mission.estimation == "truth" and CONTROLLERS[name].estimates_flow:
+        raise MissionError(
+            where,
+            "estimation",
+            f"{name} learns the current from the vehicle's sensors; on a vehicle that needs "
+            "estimation: filter (fly --estimation filter; truth is the paper's simulated "
+            "water-relative velocity sensor)",
+        )
+    if mission.dock.wec is not None:
+        raise MissionError(
+            where,
+            "dock.wec",
+            "a WEC dock in a simulated sea is for sim; fly needs the dock's motion model (dock.heave)",
+        )
+    if mission.sensors.dock_camera.enabled:
+        # the simulated camera of the sensor suite: on a vehicle the camera's fixes re-anchor the
+        # dock through dock.source camera (auvdock.fly.camera), not yet through the filter
+        raise MissionError(
+            where,
+            "sensors.dock_camera",
+            "the simulated dock camera is for sim; fly finds the dock with a camera through dock.source: "
+            "camera (camera section), or flies on the vehicle's own position (tank_positioned)",
+        )
+    if mission.sensors.dock_telemetry.enabled:
+        raise MissionError(
+            where,
+            "sensors.dock_telemetry",
+            "the simulated dock telemetry is for sim; fly takes the dock's motion from its model "
+            "(dock.heave) or a tracked dock (dock.source)",
+        )
+    if mission.dock.source == "camera":
+        mission.build_camera()  # a missing or bad camera file
+    return vehicle
+
+
 class FlySession:
     """One docking session on a vehicle.
 
@@ -249,10 +309,7 @@ class FlySession:
     Raises
     ------
     MissionError
-        A camera file that is missing or bad, a vehicle that is not an 8-thruster
-        BlueROV2 Heavy (ArduSub VECTORED_6DOF), or a flow-estimating controller with
-        ``estimation: truth`` (the paper's simulated sensing of the water-relative
-        velocity, which no vehicle has).
+        A mission fly cannot fly (:func:`check_flyable`).
     """
 
     def __init__(
@@ -303,46 +360,8 @@ class FlySession:
 
     def _build(self, mission: Mission, controller: str | None) -> None:
         """The vehicle model, the dock (model or filter), the flow and the controller step."""
-        self.vehicle = mission.build_vehicle()
-        if self.vehicle.n_thrusters != N_THRUSTERS:
-            raise MissionError(
-                mission.source or mission.name,
-                "vehicle",
-                f"fly flies ArduSub's VECTORED_6DOF frame (8 thrusters, BlueROV2 Heavy); "
-                f"{self.vehicle.name} has {self.vehicle.n_thrusters}",
-            )
-        name, _ = split_controller(controller or mission.controller.type)
-        if mission.estimation == "truth" and CONTROLLERS[name].estimates_flow:
-            raise MissionError(
-                mission.source or mission.name,
-                "estimation",
-                f"{name} learns the current from the vehicle's sensors; on a vehicle that needs "
-                "estimation: filter (fly --estimation filter; truth is the paper's simulated "
-                "water-relative velocity sensor)",
-            )
+        self.vehicle = check_flyable(mission, controller)
         self.telemetry = TelemetrySensors(mission.sensors, mission.estimation)
-        if mission.dock.wec is not None:
-            raise MissionError(
-                mission.source or mission.name,
-                "dock.wec",
-                "a WEC dock in a simulated sea is for sim; fly needs the dock's motion model (dock.heave)",
-            )
-        if mission.sensors.dock_camera.enabled:
-            # the simulated camera of the sensor suite: on a vehicle the camera's fixes re-anchor the
-            # dock through dock.source camera (auvdock.fly.camera), not yet through the filter
-            raise MissionError(
-                mission.source or mission.name,
-                "sensors.dock_camera",
-                "the simulated dock camera is for sim; fly finds the dock with a camera through dock.source: "
-                "camera (camera section), or flies on the vehicle's own position (tank_positioned)",
-            )
-        if mission.sensors.dock_telemetry.enabled:
-            raise MissionError(
-                mission.source or mission.name,
-                "sensors.dock_telemetry",
-                "the simulated dock telemetry is for sim; fly takes the dock's motion from its model "
-                "(dock.heave) or a tracked dock (dock.source)",
-            )
         # the mission's dock motion on the vehicle's clock (its offset set as the control loop starts)
         self._model_dock = ClockedDock(mission.dock.build())
         self._mission_zero_s: float | None = None  # mission t = 0 on the session's clock (s), once set
@@ -352,7 +371,6 @@ class FlySession:
             self.dock = TrackedDock(self._model_dock)
         elif mission.dock.source == "camera":
             self.dock = TrackedDock(self._model_dock, process_noise=mission.camera.process_noise_m_s)
-            mission.build_camera()  # a missing or bad camera file is a mission error, before connecting
         self.flow = mission.build_flow()
         self.autopilot = build_autopilot(mission, self.vehicle, self.dock, controller)
         self.actuators = ArduSubActuators(self.vehicle)  # what fly sends: ArduSub's channel path

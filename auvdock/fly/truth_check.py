@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from auvdock.results.store import read_run
+from auvdock.results.store import RunResults, read_run
 from auvdock.standins.truth_record import TRUTH_SOURCE
 from auvdock.vehicle.geometry import rotation_zyx
 
@@ -92,13 +92,34 @@ def _at(t_truth: np.ndarray, armed: np.ndarray, values: np.ndarray, t: np.ndarra
     return out if values.ndim == 2 else out[:, 0]
 
 
+def _read(path: str | Path, writer: str) -> RunResults:
+    """The run in ``path``; a file its ``writer`` still holds open (HDF5's lock) is said to be so."""
+    try:
+        return read_run(path)
+    except BlockingIOError:  # "unable to lock file": the writer is running
+        raise ValueError(f"{path}: still being written (is {writer} still running? stop it first)") from None
+
+
 def check_flight(flight: str | Path, truth: str | Path) -> TruthCheck:
     """Score the flight's results file ``flight`` on the stand-in's truth file ``truth``.
 
-    Raises ValueError naming the file and the problem: a flight without ``vehicle_time_s`` (recorded
-    by an older auvdock), a truth file that is not one, no overlap of their times."""
-    f = read_run(flight)
-    tr = read_run(truth)
+    Raises ValueError naming the file and the problem: a file still being written (its writer holds
+    HDF5's lock on it until it stops), a results file that is not a fly flight (a sim run, a truth
+    file), a flight without ``vehicle_time_s`` (recorded by an older auvdock), a truth file that is not
+    one, no overlap of their times."""
+    f = _read(flight, "fly")
+    tr = _read(truth, "vehicle-sim or sitl-physics")
+    source = str(f.attrs.get("source", ""))
+    if source == TRUTH_SOURCE:
+        raise ValueError(
+            f"{flight}: a truth file (--truth-out), not a fly flight; truth-check takes the flight's "
+            "results file (fly's .h5) first, then the truth file"
+        )
+    if not (source.startswith("fly ") or "telemetry_age_s" in f.extras):  # (the series only fly records)
+        raise ValueError(
+            f"{flight}: a sim results file, not a fly flight; truth-check scores the results file of a fly "
+            "session flown against vehicle-sim (or sitl-physics) with --truth-out, on that truth file"
+        )
     if "vehicle_time_s" not in f.extras:
         raise ValueError(f"{flight}: no vehicle_time_s rows (a flight recorded before they were)")
     if tr.attrs.get("source") != TRUTH_SOURCE:
