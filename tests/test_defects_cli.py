@@ -224,11 +224,11 @@ def test_sweep_started_with_sigint_ignored_stops_on_sigint(tmp_path) -> None:
     assert not any(_alive(pid) for pid in workers)
 
 
-def test_fly_refuses_the_simulated_dock_camera_before_connecting(capsys) -> None:
+def test_fly_refuses_the_simulated_dock_camera_before_connecting(capsys, tmp_path) -> None:
     """tank_0p6hz flies on the simulated dock camera (sensors.dock_camera): fly finds a dock with a
     camera only through dock.source camera, so it refuses before connecting: exit 2, one line naming
-    the field."""
-    code, err = _main(["fly", "tank_0p6hz", "--port", "udpin:127.0.0.1:9"], capsys)
+    the field, nothing written (the output in tmp_path, not the mission's runs/ in the clone)."""
+    code, err = _main(["fly", "tank_0p6hz", "--port", "udpin:127.0.0.1:9", "--out", str(tmp_path)], capsys)
     assert code == 2, err
     lines = err.strip().splitlines()
     assert (
@@ -240,3 +240,4 @@ def test_fly_refuses_the_simulated_dock_camera_before_connecting(capsys) -> None
         "the simulated dock camera is for sim; fly finds the dock with a camera through dock.source: camera "
         "(camera section), or flies on the vehicle's own position (tank_positioned)"
     )
+    assert list(tmp_path.iterdir()) == []

@@ -185,18 +185,21 @@ def test_the_sea_figures_show_the_spectrum_the_dock_and_the_path_through_the_ent
     assert any(c.get_label() == "captured" for c in top.collections)
 
 
-def test_fly_refuses_a_wec_dock_in_one_line():
+def test_fly_refuses_a_wec_dock_in_one_line(tmp_path):
     """A WEC dock's motion is the simulated sea's: no vehicle can be told it, so fly refuses before
-    connecting (exit 2, one line naming the field)."""
+    connecting (exit 2, one line naming the field), and writes nothing (its output in tmp_path, not the
+    mission's runs/ in the clone)."""
     import socket
 
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
-    res = runner.invoke(app, ["fly", "pacwave_common_10m", "--port", f"udpin:127.0.0.1:{port}"])
+    args = ["fly", "pacwave_common_10m", "--port", f"udpin:127.0.0.1:{port}", "--out", str(tmp_path)]
+    res = runner.invoke(app, args)
     assert res.exit_code == 2, res.output
     last = res.output.strip().splitlines()[-1]
     assert last.endswith(
         "pacwave_common_10m.yaml: dock.wec: a WEC dock in a simulated sea is for sim; fly needs the dock's "
         "motion model (dock.heave)"
     )
+    assert list(tmp_path.iterdir()) == []
