@@ -219,3 +219,15 @@ def test_every_controller_is_in_the_docs_synopsis_and_the_schema() -> None:
 
     described = Mission.model_fields["controller"].description or ""
     assert f"({', '.join(names)})" in described
+
+
+def test_a_port_with_an_emoji_code_is_printed_as_typed(tmp_path: Path) -> None:
+    """``--port udp:abc``: the line ``error: --port udp:abc: not ...`` holds ``:abc:``, an emoji code
+    that rich drew as a picture; printed as typed."""
+    r = _auvdock("fly", "tank_positioned", "--port", "udp:abc", "--out", "out", cwd=tmp_path)
+    assert r.returncode == 2
+    assert r.stderr == (
+        "error: --port udp:abc: not a connection string (expected udp:PORT, udpin:HOST:PORT, "
+        "udpout:HOST:PORT, tcp:HOST:PORT, tcpin:HOST:PORT or a serial device[,BAUD])\n"
+    )
+    assert not (tmp_path / "out").exists()

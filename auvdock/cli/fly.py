@@ -27,6 +27,7 @@ from auvdock.cli.app import (
     output_dir,
     output_file,
     positive_timeout,
+    water_line,
 )
 from auvdock.config.mission import MissionError
 from auvdock.runtime.clock import Clock, wall_clock
@@ -126,7 +127,7 @@ def fly(
         if arm
         else "[yellow]dry run (no --arm): neutral thrust only[/yellow]"
     )
-    console.print(f"[bold]fly[/bold] {m.name} / {name} on {port}: {mode}", soft_wrap=True)
+    console.print(f"[bold]fly[/bold] {escape(f'{m.name} / {name} on {port}')}: {mode}", soft_wrap=True)
     try:
         link = MavlinkLink(port, sysid=sysid, tlog=tlog, clock=clock)
     except (OSError, ValueError) as e:
@@ -156,7 +157,7 @@ def fly(
         now = link.clock.now()
         if now - last[0] > 1.0:
             last[0] = now
-            console.print(f"  t = {t:6.2f} s  distance {dist:6.3f} m  solver {status}")
+            console.print(f"  t = {t:6.2f} s  distance {dist:6.3f} m  solver {status}", markup=False)
 
     def on_event(
         t_ev: float, text: str
@@ -165,11 +166,11 @@ def fly(
 
     result = session.run(progress=on_step, on_event=on_event)
     if result.results_path is not None:
-        console.print(f"results: {result.results_path}", highlight=False, soft_wrap=True)
+        console.print(f"results: {result.results_path}", markup=False, highlight=False, soft_wrap=True)
         line = _camera_line(result.results_path)
         if line:
-            console.print(line, highlight=False, soft_wrap=True)
-    console.print(f"tlog: {tlog}", highlight=False, soft_wrap=True)
+            console.print(line, markup=False, highlight=False, soft_wrap=True)
+    console.print(f"tlog: {tlog}", markup=False, highlight=False, soft_wrap=True)
     if result.reason == "docked":
         console.print(f"[green]{escape(result.message)}[/green]", soft_wrap=True)
     elif result.reason == "timeout":
@@ -238,9 +239,14 @@ def vehicle_sim(
     if truth_out is not None:
         truth_out = output_file(truth_out, "--truth-out")
     console.print(
-        f"[bold]vehicle-sim[/bold]: ArduSub-like BlueROV2 (sysid 1) on {port}, mission {m.name}, "
-        f"speed {speed:g}x, flow {m.build_flow().describe()}, sensor noise {'on' if noise else 'off'}, "
-        f"{'held at the start while disarmed' if hold else 'free from the start'}; Ctrl-C to stop"
+        "[bold]vehicle-sim[/bold]: "
+        + escape(
+            f"ArduSub-like BlueROV2 (sysid 1) on {port}, mission {m.name}, speed {speed:g}x, "
+            f"{water_line(m)}, "
+            f"sensor noise {'on' if noise else 'off'}, "
+            f"{'held at the start while disarmed' if hold else 'free from the start'}; Ctrl-C to stop"
+        ),
+        soft_wrap=True,
     )
     try:
         sim = VehicleSim(
@@ -323,7 +329,8 @@ def replay(
         exit_interrupted(f"interrupted ({interrupt_name()}); results so far in {h5}")
     name = controller or (tag.controller if tag is not None else m.controller.type)
     console.print(
-        f"[bold]replay[/bold] {tlog.name} with {m.name} / {name}: {result.reason}: {result.message}",
+        "[bold]replay[/bold] "
+        + escape(f"{tlog.name} with {m.name} / {name}: {result.reason}: {result.message}"),
         highlight=False,
         soft_wrap=True,
     )
@@ -333,14 +340,17 @@ def replay(
         )
         raise typer.Exit(code=1)
     r = read_run(h5)
-    console.print(f"results: {h5} ({int(r.control_rows().sum())} control steps)")
+    console.print(
+        f"results: {h5} ({int(r.control_rows().sum())} control steps)", markup=False, highlight=False
+    )
     flight = tlog.with_suffix(".h5")
     if flight.is_file():
         f = read_run(flight)
         n = min(len(f.thrust_N), len(r.thrust_N))
         diff = float(abs(f.thrust_N[:n] - r.thrust_N[:n]).max()) if n else float("nan")
         console.print(
-            f"the flight's results {flight.name}: {n} rows compared, largest thrust difference {diff:.3g} N"
+            f"the flight's results {flight.name}: {n} rows compared, largest thrust difference {diff:.3g} N",
+            markup=False,
         )
     if result.message.startswith("replay diverged"):
         raise typer.Exit(code=1)
