@@ -211,7 +211,7 @@ def sim(
     )
     earlier_files = [p for p in [h5, *sorted(out_dir.glob(f"{stem}_*.png"))] if p.is_file()]
     if earlier_files:  # said before they go (compare and replay refuse; a rerun of sim replaces)
-        err_console.print(
+        console.print(
             f"note: replacing an earlier run's files in {out_dir}: "
             + ", ".join(p.name for p in earlier_files),
             markup=False,
