@@ -80,7 +80,8 @@ def consistency_test(n_seeds: int, T: float) -> None:
     import casadi as ca
     from test_navigation import DT, _process_truth_run, buffered_step
 
-    from auvdock.estimation.navigation_filter import NZ, NavigationSettings
+    from auvdock.estimation.navigation_filter import NZ
+    from auvdock.estimation.settings import NavigationSettings
     from auvdock.vehicle import load_vehicle
     from auvdock.vehicle.model import rk4
     from auvdock.vehicle.state import NX
@@ -111,7 +112,8 @@ def relative_test(n_seeds: int, prior_current: float, prior_velocity: float) -> 
     from test_navigation import DT, _process_truth_run, buffered_step
 
     from auvdock.estimation.flow_filter import chi2_quantile
-    from auvdock.estimation.navigation_filter import NZ, NavigationSettings
+    from auvdock.estimation.navigation_filter import NZ
+    from auvdock.estimation.settings import NavigationSettings
     from auvdock.vehicle import load_vehicle
     from auvdock.vehicle.model import rk4
     from auvdock.vehicle.state import NX

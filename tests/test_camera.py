@@ -448,3 +448,15 @@ def test_camera_file_round_trip_and_errors(tmp_path):
         load_camera(path)
     with pytest.raises(ValueError, match="cannot read camera file"):
         load_camera(tmp_path / "nope.yaml")
+
+
+def test_the_dictionaries_sizes_are_opencvs() -> None:
+    """DICTIONARIES states each family's bits and ids (so a layout is checked without OpenCV): the
+    same as OpenCV's predefined dictionaries."""
+    import cv2
+
+    from auvdock.camera.layout import DICTIONARIES
+
+    for name, (attr, bits, n_ids) in DICTIONARIES.items():
+        d = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, attr))
+        assert (int(d.markerSize), int(d.bytesList.shape[0])) == (bits, n_ids), name

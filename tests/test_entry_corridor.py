@@ -10,7 +10,8 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from auvdock.controllers.entry import EntryCorridor, EntrySpec, entry_residuals
+from auvdock.controllers.entry import EntryCorridor, entry_residuals
+from auvdock.controllers.settings import EntrySpec
 from auvdock.world.dock_body import DockBody, HullBox
 
 HULL = HullBox()

@@ -99,7 +99,8 @@ def test_gyro_bias_and_heading_survive_the_settling_in_a_strong_current() -> Non
     the current 3.6 m/s off (an update that did not iterate), the gyro-bias estimate went to
     -0.057 rad/s in pitch (true -0.0006; prior std 0.005) and the heading estimate 0.18 rad off
     at 2 s, still 0.09 rad at 15 s."""
-    from auvdock.estimation.navigation_filter import NavigationFilter, NavigationSettings
+    from auvdock.estimation.navigation_filter import NavigationFilter
+    from auvdock.estimation.settings import NavigationSettings
     from auvdock.world.flow import ConstantCurrent
 
     dt = 0.05

@@ -10,7 +10,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from auvdock.config.mission import load_mission
-from auvdock.estimation.flow_filter import EstimatorSettings, FlowEstimator
+from auvdock.estimation.flow_filter import FlowEstimator
+from auvdock.estimation.settings import EstimatorSettings
 
 ROOT = Path(__file__).resolve().parents[1]
 _VEHICLE = load_mission(ROOT / "missions" / "diagonal.yaml").build_vehicle()

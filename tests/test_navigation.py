@@ -19,8 +19,9 @@ from auvdock.estimation.navigation_filter import (
     NZ,
     NavEstimate,
     NavigationFilter,
-    NavigationSettings,
+    process_density,
 )
+from auvdock.estimation.settings import NavigationSettings
 from auvdock.runtime.fastcall import BufferedFunction
 from auvdock.sensing import measurements as ms
 from auvdock.sensing.readings import Reading
@@ -191,7 +192,7 @@ def _process_truth_run(vehicle, truth_step, seed, settings, T, every, dock_from_
     x0[2] = 5.0
     nav.reset(x0, dock_anchor=np.array([2.0, 0.0, 5.0]))
     z = nav.z + np.linalg.cholesky(nav.P) @ rng.standard_normal(NZ)
-    w_std = np.sqrt(settings.process_density() * DT)
+    w_std = np.sqrt(process_density(settings) * DT)
     u = np.zeros(vehicle.n_thrusters)
     nees, rel_nees, normed, rel_std = [], [], [], []
     for k in range(int(round(T / DT)) + 1):
@@ -364,7 +365,7 @@ def _link_truth_run(vehicle, seed, settings, timing_known, T=10.0, every=5, dela
     x0[2] = 5.0
     nav.reset(x0)
     z = nav.z + np.linalg.cholesky(nav.P) @ rng.standard_normal(NZ)
-    w_std = np.sqrt(settings.process_density() * DT)
+    w_std = np.sqrt(process_density(settings) * DT)
     comp = DelayCompensation(vehicle)
     comp.command_delay_s = delay
     comp.jitter_s = jitter if timing_known else 0.0

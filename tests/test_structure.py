@@ -180,3 +180,22 @@ def test_plain_install_runs_shipped_missions_from_any_folder(tmp_path: Path) -> 
     assert lib.returncode == 0, lib.stderr
     assert lib.stdout.startswith("True <xarray.Dataset>") and "time_s" in lib.stdout, lib.stdout
     assert sys.executable  # the test's own interpreter is untouched
+
+
+def test_reading_every_shipped_mission_loads_no_casadi_opencv_or_dask() -> None:
+    """Reading and validating a mission (``auvdock.load_mission``) needs the settings only: no
+    CasADi (the models, the controllers), no OpenCV or PyAV (the camera), no Dask (campaigns).  In a
+    fresh interpreter, since this one has them loaded."""
+    code = (
+        "import sys, auvdock\n"
+        "from auvdock.config.catalog import shipped_missions\n"
+        "names = [f.name for f in shipped_missions()]\n"
+        "for n in names:\n"
+        "    auvdock.load_mission(n).with_updates(seed=1)\n"
+        "heavy = ('casadi', 'cv2', 'av', 'dask', 'distributed')\n"
+        "print(len(names), sorted(k for k in heavy if k in sys.modules))\n"
+    )
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert r.returncode == 0, r.stderr
+    n, loaded = r.stdout.split(" ", 1)
+    assert int(n) >= 15 and loaded.strip() == "[]", r.stdout

@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from auvdock.config.mission import load_mission
-from auvdock.estimation.navigation_filter import NavigationFilter, NavigationSettings, WaveModel
+from auvdock.estimation.navigation_filter import NavigationFilter, WaveModel
+from auvdock.estimation.settings import NavigationSettings
 from auvdock.estimation.stage import wave_model
 from auvdock.sensing.settings import SensorSettings
 from auvdock.sensing.simulated import SensorSuite

@@ -36,36 +36,42 @@ docked heading, z down); {c} camera (OpenCV: x right, y down, z optical axis). P
 ``x_c = R_cd x_d + t_cd``; lengths in m, angles in rad unless the name says ``_deg``, pixels in px.
 """
 
-from auvdock.camera.calibration import calibrate, find_corners, image_sources
-from auvdock.camera.layout import (
-    DICTIONARIES,
-    Marker,
-    MarkerLayout,
-    aruco_dictionary,
-    default_layout,
-    marker_image,
-)
-from auvdock.camera.model import (
-    CameraModel,
-    CameraMount,
-    camera_from_dock,
-    load_camera,
-    project,
-    rotation_zyx,
-    save_camera,
-)
-from auvdock.camera.pose import (
-    Detection,
-    DockPose,
-    MarkerDetector,
-    estimate_dock_pose,
-    relative_pose_truth,
-    wrap_angle,
-)
-from auvdock.camera.print_sheet import sheet_size_in, write_sheet
-from auvdock.camera.render import render_checkerboard, render_view
-from auvdock.camera.video_in import Frame, FrameSource, LatestFrameGrabber, open_source
-from auvdock.camera.video_out import stream_rtp
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # pragma: no cover
+    from auvdock.camera.calibration import calibrate, find_corners, image_sources
+    from auvdock.camera.layout import (
+        DICTIONARIES,
+        Marker,
+        MarkerLayout,
+        aruco_dictionary,
+        default_layout,
+        marker_image,
+    )
+    from auvdock.camera.model import (
+        CameraModel,
+        CameraMount,
+        camera_from_dock,
+        load_camera,
+        project,
+        rotation_zyx,
+        save_camera,
+    )
+    from auvdock.camera.pose import (
+        Detection,
+        DockPose,
+        MarkerDetector,
+        estimate_dock_pose,
+        relative_pose_truth,
+        wrap_angle,
+    )
+    from auvdock.camera.print_sheet import sheet_size_in, write_sheet
+    from auvdock.camera.render import render_checkerboard, render_view
+    from auvdock.camera.video_in import Frame, FrameSource, LatestFrameGrabber, open_source
+    from auvdock.camera.video_out import stream_rtp
 
 __all__ = [
     "Frame",
@@ -100,3 +106,48 @@ __all__ = [
     "wrap_angle",
     "write_sheet",
 ]
+
+#: Each name of the package and the module it is imported from, when first asked for (the
+#: camera's modules load OpenCV and PyAV; reading a mission's marker layout needs neither).
+_LAZY: dict[str, str] = {
+    "calibrate": "auvdock.camera.calibration",
+    "find_corners": "auvdock.camera.calibration",
+    "image_sources": "auvdock.camera.calibration",
+    "DICTIONARIES": "auvdock.camera.layout",
+    "Marker": "auvdock.camera.layout",
+    "MarkerLayout": "auvdock.camera.layout",
+    "aruco_dictionary": "auvdock.camera.layout",
+    "default_layout": "auvdock.camera.layout",
+    "marker_image": "auvdock.camera.layout",
+    "CameraModel": "auvdock.camera.model",
+    "CameraMount": "auvdock.camera.model",
+    "camera_from_dock": "auvdock.camera.model",
+    "load_camera": "auvdock.camera.model",
+    "project": "auvdock.camera.model",
+    "rotation_zyx": "auvdock.camera.model",
+    "save_camera": "auvdock.camera.model",
+    "Detection": "auvdock.camera.pose",
+    "DockPose": "auvdock.camera.pose",
+    "MarkerDetector": "auvdock.camera.pose",
+    "estimate_dock_pose": "auvdock.camera.pose",
+    "relative_pose_truth": "auvdock.camera.pose",
+    "wrap_angle": "auvdock.camera.pose",
+    "sheet_size_in": "auvdock.camera.print_sheet",
+    "write_sheet": "auvdock.camera.print_sheet",
+    "render_checkerboard": "auvdock.camera.render",
+    "render_view": "auvdock.camera.render",
+    "Frame": "auvdock.camera.video_in",
+    "FrameSource": "auvdock.camera.video_in",
+    "LatestFrameGrabber": "auvdock.camera.video_in",
+    "open_source": "auvdock.camera.video_in",
+    "stream_rtp": "auvdock.camera.video_out",
+}
+
+
+def __getattr__(name: str) -> Any:
+    """A name of :data:`__all__`, imported from its module when first asked for."""
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'auvdock.camera' has no attribute {name!r}")

@@ -26,12 +26,14 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import cv2
 import numpy as np
 
 from auvdock.vehicle.geometry import rotation_zyx
+
+if TYPE_CHECKING:
+    import cv2
 
 __all__ = [
     "DICTIONARIES",
@@ -43,13 +45,15 @@ __all__ = [
     "marker_image",
 ]
 
-#: Supported dictionary names -> OpenCV predefined dictionary ids.
-DICTIONARIES: dict[str, int] = {
-    "apriltag_36h11": cv2.aruco.DICT_APRILTAG_36h11,
-    "aruco_4x4_50": cv2.aruco.DICT_4X4_50,
-    "aruco_5x5_100": cv2.aruco.DICT_5X5_100,
-    "aruco_6x6_250": cv2.aruco.DICT_6X6_250,
-    "aruco_original": cv2.aruco.DICT_ARUCO_ORIGINAL,
+#: Supported dictionary names -> (OpenCV's predefined dictionary, bits per side, number of ids).
+#: The sizes are OpenCV's own (tests/test_camera.py compares them), written here so that a layout
+#: is checked -- when a mission is read -- without loading OpenCV.
+DICTIONARIES: dict[str, tuple[str, int, int]] = {
+    "apriltag_36h11": ("DICT_APRILTAG_36h11", 6, 587),
+    "aruco_4x4_50": ("DICT_4X4_50", 4, 50),
+    "aruco_5x5_100": ("DICT_5X5_100", 5, 100),
+    "aruco_6x6_250": ("DICT_6X6_250", 6, 250),
+    "aruco_original": ("DICT_ARUCO_ORIGINAL", 5, 1024),
 }
 
 #: Rotation dock <- marker of the default marker orientation (columns: marker x, y, z in dock axes):
@@ -129,17 +133,24 @@ class Marker:
         return self.corners_marker() @ self.R_dm().T + self.t_dm()
 
 
-def aruco_dictionary(name: str) -> cv2.aruco.Dictionary:
-    """The OpenCV dictionary for a supported name (see :data:`DICTIONARIES`)."""
+def _check_dictionary(name: str) -> None:
     if name not in DICTIONARIES:
         raise ValueError(f"dictionary: {name!r} is not supported; choose from {', '.join(DICTIONARIES)}")
-    return cv2.aruco.getPredefinedDictionary(DICTIONARIES[name])
+
+
+def aruco_dictionary(name: str) -> cv2.aruco.Dictionary:
+    """The OpenCV dictionary for a supported name (see :data:`DICTIONARIES`)."""
+    import cv2
+
+    _check_dictionary(name)
+    return cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, DICTIONARIES[name][0]))
 
 
 def _dictionary_info(name: str) -> tuple[int, int]:
     """(bits per side, number of ids) of a supported dictionary."""
-    d = aruco_dictionary(name)
-    return int(d.markerSize), int(d.bytesList.shape[0])
+    _check_dictionary(name)
+    _, bits, n_ids = DICTIONARIES[name]
+    return bits, n_ids
 
 
 @dataclass(frozen=True)
@@ -225,7 +236,7 @@ class MarkerLayout:
         dictionary = data.get("dictionary", "apriltag_36h11")
         if not isinstance(dictionary, str):
             raise ValueError(f"dictionary: expected a name, got {dictionary!r}")
-        aruco_dictionary(dictionary)
+        _check_dictionary(dictionary)
         items = data.get("markers")
         if not isinstance(items, list | tuple):
             raise ValueError(f"markers: expected a list of markers, got {items!r}")
@@ -294,6 +305,8 @@ def marker_image(layout: MarkerLayout, marker_id: int, pixels: int) -> np.ndarra
     cells = layout.cells
     if isinstance(pixels, bool) or not isinstance(pixels, int | np.integer) or pixels < cells + 2:
         raise ValueError(f"pixels: expected an integer >= {cells + 2}, got {pixels!r}")
+    import cv2
+
     core = cv2.aruco.generateImageMarker(aruco_dictionary(layout.dictionary), marker.id, cells, borderBits=1)
     img = cv2.copyMakeBorder(core, 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=255)
     # nearest resampling by pixel centres, exact for multiples (cv2.resize INTER_NEAREST can be off by one)

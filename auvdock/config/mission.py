@@ -34,14 +34,12 @@ from auvdock.config.schema import NonNegFloat, PosFloat, Strict, Vec3, Vec12, fi
 from auvdock.config.sea import SeaSpec, WecSpec
 from auvdock.config.yamlio import load_yaml_strict
 from auvdock.controllers.registry import controller_names, settings_for, settings_union, split_controller
-from auvdock.controllers.settings import MPCSettings
-from auvdock.controllers.solvers import solver_names
-from auvdock.estimation.flow_filter import EstimatorSettings
-from auvdock.estimation.navigation_filter import NavigationSettings
+from auvdock.controllers.settings import MPCSettings, solver_names
+from auvdock.estimation.settings import EstimatorSettings, NavigationSettings
 from auvdock.loop.guidance import GuidanceSettings
 from auvdock.sensing.settings import SensorSettings
-from auvdock.vehicle import Vehicle, load_vehicle, preset_names
-from auvdock.vehicle.params import VehicleParamsError
+from auvdock.vehicle import preset_names
+from auvdock.vehicle.params import VehicleParams, VehicleParamsError, load_params
 from auvdock.world.dock import HeaveDock
 from auvdock.world.flow import ConstantCurrent, DoubleGyre, FlowField, StillWater, flow_case, flow_case_names
 from auvdock.world.spectra import SpectrumFileError
@@ -49,6 +47,7 @@ from auvdock.world.spectra import SpectrumFileError
 if TYPE_CHECKING:
     from auvdock.camera.model import CameraMount
     from auvdock.sensing.camera_fix import CameraFixSource
+    from auvdock.vehicle import Vehicle
     from auvdock.world.dock_body import CaptureLimits, DockBody, HullBox
     from auvdock.world.waves import WaveComponents
     from auvdock.world.wec_dock import WecDock
@@ -564,8 +563,10 @@ class Mission(Strict):
         """The mission file this mission was read from, if any."""
         return self._source
 
-    def build_vehicle(self) -> Vehicle:
-        """The vehicle the mission names, with its overrides."""
+    def vehicle_params(self) -> VehicleParams:
+        """The parameters of the vehicle the mission names, with its overrides (no model built:
+        what validating a mission checks, without CasADi).  Raises
+        :class:`auvdock.vehicle.params.VehicleParamsError`."""
         v = self.vehicle
         if v.file is not None:
             p = Path(v.file)
@@ -574,7 +575,13 @@ class Mission(Strict):
             target: str | Path = p
         else:
             target = v.preset or "bluerov2_heavy"
-        return load_vehicle(target, v.overrides or None, v.thruster_voltage_V)
+        return load_params(target, v.overrides or None, v.thruster_voltage_V)
+
+    def build_vehicle(self) -> Vehicle:
+        """The vehicle the mission names, with its overrides."""
+        from auvdock.vehicle import Vehicle  # the model (CasADi): when built, not when read
+
+        return Vehicle(self.vehicle_params())
 
     def build_camera(self):
         """The camera model (:class:`auvdock.camera.CameraModel`) of ``camera.calibration``.
@@ -696,7 +703,7 @@ class Mission(Strict):
             return None
         from auvdock.world.dock_body import HullBox, WecBuoy
 
-        L, W, H = (float(v) for v in self.build_vehicle().params.hull_box_m)
+        L, W, H = (float(v) for v in self.vehicle_params().hull_box_m)
         hull = HullBox(length_m=L, width_m=W, height_m=H)
         buoy = None
         coef = getattr(dock, "coefficients", None)
@@ -958,7 +965,7 @@ class Mission(Strict):
         m._source = self._source
         if any(p[0] == "vehicle" or p[:2] == ("controller", "weights") for p in flat) or base is not self:
             try:
-                n = m.build_vehicle().n_thrusters
+                n = len(m.vehicle_params().thrust_limits_N)
             except VehicleParamsError as e:
                 field = "vehicle" if e.field == "vehicle" else f"vehicle.{e.field}"
                 raise MissionError(label, field, e.message) from None
@@ -986,17 +993,17 @@ def parse_mission(data: Any, source: str | Path = "<mission>") -> Mission:
         m._source = Path(source)
     # a vehicle file and its overrides are checked now, so that bad input fails early
     try:
-        m.build_vehicle()
+        params = m.vehicle_params()
     except VehicleParamsError as e:
         field = "vehicle" if e.field == "vehicle" else f"vehicle.{e.field}"
         if m.vehicle.file is not None and not e.field.startswith("overrides"):
             field = "vehicle.file" if e.field == "vehicle" else f"vehicle.file ({e.field})"
         raise MissionError(source, field, e.message) from None
-    n = m.build_vehicle().n_thrusters
+    n = len(params.thrust_limits_N)
     try:
         m.controller.weights.R_for(n)
     except ValueError as e:
-        raise MissionError(source, "controller.weights.R", f"{e} ({m.build_vehicle().name})") from None
+        raise MissionError(source, "controller.weights.R", f"{e} ({params.name})") from None
     bad = m.world_problem()
     if bad is not None:
         raise MissionError(source, *bad)
@@ -1004,7 +1011,7 @@ def parse_mission(data: Any, source: str | Path = "<mission>") -> Mission:
         raise MissionError(
             source,
             "simulation.actuators",
-            f"ardusub: ArduSub's VECTORED_6DOF mixer drives 8 thrusters; {m.build_vehicle().name} has {n} "
+            f"ardusub: ArduSub's VECTORED_6DOF mixer drives 8 thrusters; {params.name} has {n} "
             "(use ideal)",
         )
     return m

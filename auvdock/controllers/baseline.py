@@ -11,8 +11,6 @@ name           prediction model                            flow it is given
 
 from __future__ import annotations
 
-from typing import Literal
-
 import numpy as np
 
 from auvdock.controllers.base import ControlOutput, Estimate, Plan
@@ -23,31 +21,7 @@ from auvdock.estimation.water_ahead import WaterAhead
 from auvdock.vehicle import Vehicle
 from auvdock.world.dock import DockMotion
 
-__all__ = [
-    "NaiveSettings",
-    "KinematicSettings",
-    "OracleSettings",
-    "BaselineMPC",
-    "build_mpc",
-]
-
-
-class NaiveSettings(MPCSettings):
-    """Naive MPC: predicts with eqs. (1)-(2) and no current."""
-
-    type: Literal["naive"] = "naive"
-
-
-class KinematicSettings(MPCSettings):
-    """Kinematic MPC: the true current in the kinematics only (eq. 6); reads the true flow."""
-
-    type: Literal["kinematic"] = "kinematic"
-
-
-class OracleSettings(MPCSettings):
-    """Oracle MPC: the full model with the true current (Assumption 3); reads the true flow."""
-
-    type: Literal["oracle"] = "oracle"
+__all__ = ["BaselineMPC", "build_mpc"]
 
 
 def build_mpc(

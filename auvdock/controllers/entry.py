@@ -39,41 +39,12 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import casadi as ca
-from pydantic import Field
-
-from auvdock.config.schema import NonNegFloat, PosFloat, Strict
 
 if TYPE_CHECKING:
+    from auvdock.controllers.settings import EntrySpec
     from auvdock.world.dock_body import DockBody, HullBox
 
-__all__ = ["EntrySpec", "EntryCorridor", "entry_residuals"]
-
-
-class EntrySpec(Strict):
-    """A controller's ``entry`` section: the dock's entry corridor in the MPC's cost."""
-
-    enabled: bool | None = Field(
-        default=None,
-        description="hold the plan in the dock's entry corridor (soft constraints); default: on for the "
-        "robust variant in a mission that docks on contact (docking.criterion: capture), off for the paper's",
-    )
-    contact_speed_m_s: PosFloat = Field(
-        default=0.10, description="closing speed allowed when the nose reaches the cradle's entrance, m/s"
-    )
-    deceleration_1_s: PosFloat = Field(
-        default=0.5, description="closing speed allowed per metre ahead of the cradle's entrance, (m/s)/m"
-    )
-    heading_margin_deg: PosFloat = Field(
-        default=5.0, description="heading error allowed at the cradle's entrance, deg"
-    )
-    heading_slope_deg_m: NonNegFloat = Field(
-        default=60.0, description="heading error allowed per metre ahead of the cradle's entrance, deg/m"
-    )
-    lateral_weight: NonNegFloat = Field(
-        default=500.0, description="penalty on leaving the cone, per m^2 (the position weight Q is 1 per m^2)"
-    )
-    speed_weight: NonNegFloat = Field(default=200.0, description="penalty on closing too fast, per (m/s)^2")
-    heading_weight: NonNegFloat = Field(default=200.0, description="penalty on the heading bound, per rad^2")
+__all__ = ["EntryCorridor", "entry_residuals"]
 
 
 @dataclass(frozen=True)

@@ -48,17 +48,18 @@ from __future__ import annotations
 
 import itertools
 import time
-from typing import Annotated, Literal
 
 import casadi as ca
 import numpy as np
-from pydantic import Field
 
-from auvdock.config.schema import Vec6Pos
 from auvdock.controllers.base import ControlOutput, Estimate, Plan
 from auvdock.controllers.baseline import build_mpc
 from auvdock.controllers.rti import QRQP_OPTIONS
-from auvdock.controllers.settings import MPCSettings
+from auvdock.controllers.settings import (
+    CertaintyEquivalentSettings,
+    OptimizedSettings,
+    SequentialSettings,
+)
 from auvdock.controllers.world import ControllerWorld
 from auvdock.estimation.flow_filter import (
     EstimatorSettings,
@@ -75,13 +76,7 @@ from auvdock.vehicle import Vehicle
 from auvdock.vehicle.state import ANG, ATT, ETA
 from auvdock.world.dock import DockMotion
 
-__all__ = [
-    "FSEMPC",
-    "PerceptionLaw",
-    "SequentialSettings",
-    "OptimizedSettings",
-    "CertaintyEquivalentSettings",
-]
+__all__ = ["FSEMPC", "PerceptionLaw"]
 
 
 #: Gate probability of the robust FSE filter's innovation test (chi-square, per update).
@@ -91,38 +86,6 @@ INNOVATION_GATE = 0.999
 #: BlueROV2 parameter sets in the literature differ by 20-50 % per coefficient) and of the T200
 #: curve over battery voltage.
 MODEL_ACCEL_ERROR = 0.2
-
-
-class CertaintyEquivalentSettings(MPCSettings):
-    """Certainty-equivalent MPC: the FSE controllers' flow filter and MPC, no exploration."""
-
-    type: Literal["ce"] = "ce"
-
-
-class SequentialSettings(MPCSettings):
-    """Sequential FSE-MPC: the perception law (9), then the MPC with the estimated flow."""
-
-    type: Literal["sequential"] = "sequential"
-    perception_wrench_max: Vec6Pos = Field(
-        default=[0.1, 0.1, 0.1, 0.1, 0.1, 0.1],
-        description="bound of the active-perception wrench (N, N m), 6 values",
-    )
-    perception_solver: Literal["corners", "sqp", "ipopt"] = Field(
-        default="corners",
-        description=(
-            "how law (9) is solved: corners (best of the 64 corners of the wrench box, one "
-            "compiled call), sqp or ipopt (local optimum from a fixed start)"
-        ),
-    )
-
-
-class OptimizedSettings(MPCSettings):
-    """Optimized FSE-MPC: cost (10) minus alpha times the information metric F."""
-
-    type: Literal["optimized"] = "optimized"
-    alpha: Annotated[float, Field(ge=0)] = Field(
-        default=1e-3, description="weight on the information metric F (see auvdock.controllers.fse)"
-    )
 
 
 def _sym_from6(g: ca.SX) -> ca.SX:

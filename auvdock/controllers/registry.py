@@ -25,20 +25,28 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Annotated, Any, Union
+from typing import TYPE_CHECKING, Annotated, Any, Union
 
 from pydantic import Field
 
-from auvdock.controllers.base import Controller
-from auvdock.controllers.baseline import BaselineMPC, KinematicSettings, NaiveSettings, OracleSettings
-from auvdock.controllers.fse import FSEMPC, CertaintyEquivalentSettings, OptimizedSettings, SequentialSettings
-from auvdock.controllers.settings import MPCSettings
-from auvdock.controllers.solvers import SOLVERS
+from auvdock.controllers.settings import (
+    SOLVER_NAMES,
+    CertaintyEquivalentSettings,
+    KinematicSettings,
+    MPCSettings,
+    NaiveSettings,
+    OptimizedSettings,
+    OracleSettings,
+    SequentialSettings,
+)
 from auvdock.controllers.world import ControllerWorld
-from auvdock.estimation.flow_filter import EstimatorSettings
+from auvdock.estimation.settings import EstimatorSettings
 from auvdock.sensing.settings import SensorSettings
-from auvdock.vehicle import Vehicle
-from auvdock.world.dock import DockMotion
+
+if TYPE_CHECKING:
+    from auvdock.controllers.base import Controller
+    from auvdock.vehicle import Vehicle
+    from auvdock.world.dock import DockMotion
 
 __all__ = [
     "ControllerEntry",
@@ -107,11 +115,17 @@ class ControllerEntry:
     in_paper: bool = True
 
 
+# the controllers' classes (CasADi) are imported when one is built, not when the registry is read
+# (reading a mission validates its controller section against the settings alone)
 def _baseline(settings, vehicle, dock, solver, estimator, sensors, world) -> Controller:
+    from auvdock.controllers.baseline import BaselineMPC
+
     return BaselineMPC(settings, vehicle, dock, solver, world)
 
 
 def _fse(settings, vehicle, dock, solver, estimator, sensors, world) -> Controller:
+    from auvdock.controllers.fse import FSEMPC
+
     return FSEMPC(settings, vehicle, dock, solver, estimator, sensors, world)
 
 
@@ -238,8 +252,8 @@ def resolve_solver(name: str, controller: str, variant: str | None = None) -> st
     plans with the wrench (the MPC's input offset), and RTI tracks it.
     """
     if name != "auto":
-        if name not in SOLVERS:
-            raise ValueError(f"unknown solver {name!r} (known: auto, {', '.join(SOLVERS)})")
+        if name not in SOLVER_NAMES:
+            raise ValueError(f"unknown solver {name!r} (known: auto, {', '.join(SOLVER_NAMES)})")
         return name
     name, spec_variant = split_controller(controller)
     entry = CONTROLLERS[name]

@@ -1,9 +1,11 @@
-"""Settings every MPC controller shares (paper eq. 10; docs/parameter-sources.md section 4).
+"""The controllers' settings: what every MPC shares (paper eq. 10; docs/parameter-sources.md
+section 4) and each controller type's own.
 
 Each controller type has its own settings class (a :class:`MPCSettings` with a literal
-``type`` and its own fields, in the controller's module); the mission's ``controller``
-section is the discriminated union of them (:func:`auvdock.controllers.registry.settings_union`),
-so a field of one controller type given to another (``alpha`` to ``oracle``) is an error.
+``type`` and its own fields, all in this module, which needs no CasADi: reading a mission loads
+none); the mission's ``controller`` section is the discriminated union of them
+(:func:`auvdock.controllers.registry.settings_union`), so a field of one controller type given to
+another (``alpha`` to ``oracle``) is an error.
 """
 
 from __future__ import annotations
@@ -12,10 +14,33 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field, field_validator
 
-from auvdock.config.schema import NonNegFloat, PosFloat, Strict, Vec3Pos, Vec12NonNeg
-from auvdock.controllers.entry import EntrySpec
+from auvdock.config.schema import NonNegFloat, PosFloat, Strict, Vec3Pos, Vec6Pos, Vec12NonNeg
 
-__all__ = ["WeightsSpec", "BoundsSpec", "SolverSpec", "MPCSettings", "DEFAULT_Q"]
+__all__ = [
+    "WeightsSpec",
+    "BoundsSpec",
+    "SolverSpec",
+    "EntrySpec",
+    "MPCSettings",
+    "DEFAULT_Q",
+    "SOLVER_NAMES",
+    "solver_names",
+    "NaiveSettings",
+    "KinematicSettings",
+    "OracleSettings",
+    "CertaintyEquivalentSettings",
+    "SequentialSettings",
+    "OptimizedSettings",
+]
+
+#: The NLP solvers registered in :mod:`auvdock.controllers.solvers` (``SOLVERS``, which checks
+#: that it registers these), named here so that reading a mission needs no CasADi.
+SOLVER_NAMES = ("ipopt", "sqp", "rti")
+
+
+def solver_names() -> tuple[str, ...]:
+    """``auto`` and every registered solver."""
+    return ("auto", *SOLVER_NAMES)
 
 #: Diagonal stage and terminal weights of the 12-state error (paper; docs/parameter-sources.md section 4).
 DEFAULT_Q = [1.0, 1.0, 1.0, 100.0, 100.0, 100.0, 1.0, 1.0, 1.0, 100.0, 100.0, 100.0]
@@ -92,11 +117,36 @@ class SolverSpec(Strict):
     @field_validator("name")
     @classmethod
     def _known(cls, v: str) -> str:
-        from auvdock.controllers.solvers import solver_names
-
         if v not in solver_names():
             raise ValueError(f"unknown solver {v!r} (known: {', '.join(solver_names())})")
         return v
+
+
+class EntrySpec(Strict):
+    """A controller's ``entry`` section: the dock's entry corridor in the MPC's cost."""
+
+    enabled: bool | None = Field(
+        default=None,
+        description="hold the plan in the dock's entry corridor (soft constraints); default: on for the "
+        "robust variant in a mission that docks on contact (docking.criterion: capture), off for the paper's",
+    )
+    contact_speed_m_s: PosFloat = Field(
+        default=0.10, description="closing speed allowed when the nose reaches the cradle's entrance, m/s"
+    )
+    deceleration_1_s: PosFloat = Field(
+        default=0.5, description="closing speed allowed per metre ahead of the cradle's entrance, (m/s)/m"
+    )
+    heading_margin_deg: PosFloat = Field(
+        default=5.0, description="heading error allowed at the cradle's entrance, deg"
+    )
+    heading_slope_deg_m: NonNegFloat = Field(
+        default=60.0, description="heading error allowed per metre ahead of the cradle's entrance, deg/m"
+    )
+    lateral_weight: NonNegFloat = Field(
+        default=500.0, description="penalty on leaving the cone, per m^2 (the position weight Q is 1 per m^2)"
+    )
+    speed_weight: NonNegFloat = Field(default=200.0, description="penalty on closing too fast, per (m/s)^2")
+    heading_weight: NonNegFloat = Field(default=200.0, description="penalty on the heading bound, per rad^2")
 
 
 class MPCSettings(Strict):
@@ -125,3 +175,56 @@ class MPCSettings(Strict):
         if self.entry.enabled is not None:
             return bool(self.entry.enabled)
         return docks_on_contact and self.variant == "robust"
+
+
+# --- each controller type's settings (registered in auvdock.controllers.registry) ---
+
+
+class NaiveSettings(MPCSettings):
+    """Naive MPC: predicts with eqs. (1)-(2) and no current."""
+
+    type: Literal["naive"] = "naive"
+
+
+class KinematicSettings(MPCSettings):
+    """Kinematic MPC: the true current in the kinematics only (eq. 6); reads the true flow."""
+
+    type: Literal["kinematic"] = "kinematic"
+
+
+class OracleSettings(MPCSettings):
+    """Oracle MPC: the full model with the true current (Assumption 3); reads the true flow."""
+
+    type: Literal["oracle"] = "oracle"
+
+
+class CertaintyEquivalentSettings(MPCSettings):
+    """Certainty-equivalent MPC: the FSE controllers' flow filter and MPC, no exploration."""
+
+    type: Literal["ce"] = "ce"
+
+
+class SequentialSettings(MPCSettings):
+    """Sequential FSE-MPC: the perception law (9), then the MPC with the estimated flow."""
+
+    type: Literal["sequential"] = "sequential"
+    perception_wrench_max: Vec6Pos = Field(
+        default=[0.1, 0.1, 0.1, 0.1, 0.1, 0.1],
+        description="bound of the active-perception wrench (N, N m), 6 values",
+    )
+    perception_solver: Literal["corners", "sqp", "ipopt"] = Field(
+        default="corners",
+        description=(
+            "how law (9) is solved: corners (best of the 64 corners of the wrench box, one "
+            "compiled call), sqp or ipopt (local optimum from a fixed start)"
+        ),
+    )
+
+
+class OptimizedSettings(MPCSettings):
+    """Optimized FSE-MPC: cost (10) minus alpha times the information metric F."""
+
+    type: Literal["optimized"] = "optimized"
+    alpha: Annotated[float, Field(ge=0)] = Field(
+        default=1e-3, description="weight on the information metric F (see auvdock.controllers.fse)"
+    )

@@ -30,6 +30,7 @@ import casadi as ca
 import numpy as np
 
 from auvdock.controllers.rti import RealTimeIteration, qp_options
+from auvdock.controllers.settings import SOLVER_NAMES, solver_names
 from auvdock.runtime import timing
 from auvdock.runtime.codegen import compiled_nlpsol
 
@@ -238,6 +239,5 @@ SOLVERS: dict[str, SolverEntry] = {
 }
 
 
-def solver_names() -> tuple[str, ...]:
-    """``auto`` and every registered solver."""
-    return ("auto", *SOLVERS)
+# reading a mission checks solver names against SOLVER_NAMES, which needs no CasADi: the same names
+assert tuple(SOLVERS) == SOLVER_NAMES, "auvdock.controllers.settings.SOLVER_NAMES must list SOLVERS"

@@ -40,13 +40,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from statistics import NormalDist
-from typing import Annotated
 
 import casadi as ca
 import numpy as np
-from pydantic import Field
 
-from auvdock.config.schema import Strict, Vec3
+from auvdock.estimation.settings import EstimatorSettings
 from auvdock.runtime.codegen import compiled_function
 from auvdock.runtime.fastcall import BufferedFunction
 from auvdock.vehicle import Vehicle
@@ -85,27 +83,6 @@ def flow_transition(nu2, dt: float, lib=np):
         eye = ca.DM.eye(3)
     A2 = A @ A
     return eye + A + A2 / 2.0 + A2 @ A / 6.0 + A2 @ A2 / 24.0
-
-
-class EstimatorSettings(Strict):
-    """The flow Kalman filter's settings (docs/parameter-sources.md section 5)."""
-
-    prior_flow_ned_m_s: Vec3 = Field(default=[0.0, 0.0, 0.0], description="prior flow estimate, m/s")
-    prior_std_m_s: Annotated[float, Field(gt=0)] = Field(
-        default=3.0, description="prior standard deviation per axis, m/s (contains the 2 m/s of case 4)"
-    )
-    process_noise_m2_s2: Annotated[float, Field(ge=0)] = Field(
-        default=1e-12, description="Q_f per axis per step, (m/s)^2"
-    )
-    accel_noise_var: Annotated[float, Field(gt=0)] = Field(
-        default=2.029e-5, description="R: accelerometer variance, (m/s^2)^2"
-    )
-    depth_rate_noise_var: Annotated[float, Field(gt=0)] = Field(
-        default=2e-6, description="R: depth-rate variance, (m/s)^2"
-    )
-    forgetting_factor: Annotated[float, Field(gt=0, le=1)] = Field(
-        default=1.0, description="gramian forgetting factor in (0, 1]; 1 = no forgetting"
-    )
 
 
 def gramian_step(G, nu2, depth_row, dt: float, R_inv: np.ndarray, gamma: float = 1.0, lib=np):

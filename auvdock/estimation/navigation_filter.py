@@ -63,15 +63,14 @@ import math
 import weakref
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING
 
 import casadi as ca
 import numpy as np
-from pydantic import Field
 
-from auvdock.config.schema import PosFloat, Strict
 from auvdock.estimation.delay import ThrustSchedule, thrust_at
 from auvdock.estimation.flow_filter import chi2_quantile
+from auvdock.estimation.settings import NavigationSettings
 from auvdock.runtime.codegen import compiled_function
 from auvdock.runtime.fastcall import BufferedFunction
 from auvdock.sensing import measurements
@@ -168,105 +167,28 @@ _CURVED_ROWS = np.arange(_OFFSETS["accel"], _OFFSETS["accel"] + measurements.KIN
 IEKF_LIN_TOL = 0.1
 
 
-class NavigationSettings(Strict):
-    """Noise model of the navigation filter (standard deviations; densities per sqrt(s)).
+def process_density(settings: NavigationSettings) -> np.ndarray:
+    """Diagonal of the process-noise density (20,): variance growth per second of each component."""
+    q = np.empty(NZ)
+    q[POS] = settings.position_noise_m_sqrt_s
+    q[ATT] = settings.attitude_noise_rad_sqrt_s
+    q[LIN] = settings.velocity_noise_m_s_sqrt_s
+    q[ANG] = settings.rate_noise_rad_s_sqrt_s
+    q[_CURRENT] = settings.current_walk_m_s_sqrt_s
+    q[_BIAS_A] = settings.accel_bias_walk_m_s2_sqrt_s
+    q[_BIAS_G] = settings.gyro_bias_walk_rad_s_sqrt_s
+    q[DOCK] = settings.dock_walk_m_sqrt_s
+    return q**2
 
-    The process noise is the model's error, per state group, as white noise on the state
-    derivative: over a step of h seconds a group's variance grows by ``q^2 h``.  For a filter
-    whose model equals the truth it can be small (the defaults); unmodelled dynamics
-    (damping, buoyancy, thruster errors) go into the velocity and rate terms.
-    """
 
-    position_noise_m_sqrt_s: PosFloat = Field(
-        default=1e-3, description="process noise of the position, m/sqrt(s)"
-    )
-    attitude_noise_rad_sqrt_s: PosFloat = Field(
-        default=1e-3, description="process noise of the Euler angles, rad/sqrt(s)"
-    )
-    velocity_noise_m_s_sqrt_s: PosFloat = Field(
-        default=0.02, description="process noise of the body linear velocity, m/s/sqrt(s)"
-    )
-    rate_noise_rad_s_sqrt_s: PosFloat = Field(
-        default=0.02, description="process noise of the body angular rate, rad/s/sqrt(s)"
-    )
-    current_walk_m_s_sqrt_s: PosFloat = Field(
-        default=0.005, description="random-walk density of the horizontal current, m/s/sqrt(s)"
-    )
-    prior_current_std_m_s: PosFloat = Field(
-        default=1.0, description="prior standard deviation of each current component (mean zero), m/s"
-    )
-    accel_bias_walk_m_s2_sqrt_s: PosFloat = Field(
-        default=1e-4, description="random-walk density of the accelerometer bias, m/s^2/sqrt(s)"
-    )
-    gyro_bias_walk_rad_s_sqrt_s: PosFloat = Field(
-        default=1e-5, description="random-walk density of the gyro bias, rad/s/sqrt(s)"
-    )
-    prior_accel_bias_std_m_s2: PosFloat = Field(
-        default=0.05, description="prior std of each accelerometer bias component (mean zero), m/s^2"
-    )
-    prior_gyro_bias_std_rad_s: PosFloat = Field(
-        default=0.005, description="prior std of each gyro bias component (mean zero), rad/s"
-    )
-    dock_walk_m_sqrt_s: PosFloat = Field(
-        default=0.005,
-        description="random-walk density of the dock's anchor (a moored dock's slow drift), m/sqrt(s)",
-    )
-    prior_dock_std_m: PosFloat = Field(
-        default=0.5,
-        description="prior std of the dock's anchor about its charted position (dock.position_ned_m), per "
-        "axis, m: how well the vehicle knows where the dock is before its camera sees it",
-    )
-    prior_position_std_m: PosFloat = Field(default=1.0, description="prior position std, m")
-    prior_attitude_std_rad: PosFloat = Field(default=0.1, description="prior Euler-angle std, rad")
-    prior_velocity_std_m_s: PosFloat = Field(default=0.5, description="prior body linear velocity std, m/s")
-    prior_rate_std_rad_s: PosFloat = Field(default=0.2, description="prior body angular rate std, rad/s")
-    substeps: int = Field(default=1, ge=1, le=20, description="RK4 steps per prediction period")
-    second_order_prediction: bool = Field(
-        default=True,
-        description="add the second-order term of the model to the predicted covariance (the "
-        "model's rates are worth little while the velocity through the water is uncertain)",
-    )
-    waves: Literal["auto", "off"] = Field(
-        default="auto",
-        description="auto: in a mission with waves (sea.waves) the water is a slow current plus a "
-        "wave-frequency velocity, a damped oscillator per axis at the sea's mean frequency with the sea "
-        "state's orbital spread at the start depth (the statistics a wave buoy reports, not the "
-        "realised sea); off: a current only",
-    )
-    wave_damping_ratio: float = Field(
-        default=0.1,
-        gt=0.0,
-        lt=1.0,
-        description="relative damping of the wave oscillators (Fossen 2011, 8.2: 0.05-0.1)",
-    )
-    settle_s: float = Field(
-        default=2.0,
-        ge=0.0,
-        description="the controllers hold zero thrust for this long while the filter settles "
-        "from its prior (its first estimates can be metres per second off), s",
-    )
-
-    def process_density(self) -> np.ndarray:
-        """Diagonal of the process-noise density (20,): variance growth per second of each component."""
-        q = np.empty(NZ)
-        q[POS] = self.position_noise_m_sqrt_s
-        q[ATT] = self.attitude_noise_rad_sqrt_s
-        q[LIN] = self.velocity_noise_m_s_sqrt_s
-        q[ANG] = self.rate_noise_rad_s_sqrt_s
-        q[_CURRENT] = self.current_walk_m_s_sqrt_s
-        q[_BIAS_A] = self.accel_bias_walk_m_s2_sqrt_s
-        q[_BIAS_G] = self.gyro_bias_walk_rad_s_sqrt_s
-        q[DOCK] = self.dock_walk_m_sqrt_s
-        return q**2
-
-    def prior_state_std(self) -> np.ndarray:
-        """Prior standard deviation of the vehicle state (12,)."""
-        s = np.empty(NX)
-        s[POS] = self.prior_position_std_m
-        s[ATT] = self.prior_attitude_std_rad
-        s[LIN] = self.prior_velocity_std_m_s
-        s[ANG] = self.prior_rate_std_rad_s
-        return s
+def prior_state_std(settings: NavigationSettings) -> np.ndarray:
+    """Prior standard deviation of the vehicle state (12,)."""
+    s = np.empty(NX)
+    s[POS] = settings.prior_position_std_m
+    s[ATT] = settings.prior_attitude_std_rad
+    s[LIN] = settings.prior_velocity_std_m_s
+    s[ANG] = settings.prior_rate_std_rad_s
+    return s
 
 
 @dataclass
@@ -561,7 +483,7 @@ class NavigationFilter:
         self._fn, self.build = compiled_function(fn)
         self._meas, _ = compiled_function(meas)
         assert all(self._fn.sparsity_out(i).is_dense() for i in range(4))
-        self._qd = settings.process_density()
+        self._qd = process_density(settings)
         self._in_wave = np.array([1.0, 0.5])
         if waves is not None:
             q_wave = np.zeros(6)
@@ -641,7 +563,7 @@ class NavigationFilter:
         """
         x0 = np.asarray(x0, dtype=float).reshape(NX)
         st = self.settings
-        std = st.prior_state_std() if x0_std is None else np.asarray(x0_std, float).reshape(NX)
+        std = prior_state_std(st) if x0_std is None else np.asarray(x0_std, float).reshape(NX)
         self.z = np.concatenate([x0, np.zeros(self.nz - NX)])
         if dock_anchor is not None:
             self.z[DOCK] = np.asarray(dock_anchor, dtype=float).reshape(3)

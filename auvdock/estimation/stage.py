@@ -45,7 +45,8 @@ import numpy as np
 
 from auvdock.estimation.delay import ThrustSchedule, mean_thrust
 from auvdock.estimation.estimate import Estimate
-from auvdock.estimation.navigation_filter import NavEstimate, NavigationFilter, NavigationSettings, WaveModel
+from auvdock.estimation.navigation_filter import NavEstimate, NavigationFilter, WaveModel
+from auvdock.estimation.settings import NavigationSettings
 from auvdock.sensing.readings import FlowSensing, Readings
 from auvdock.vehicle.model import rk4
 from auvdock.vehicle.state import ANG, ATT, ETA, LIN, NX

@@ -24,7 +24,7 @@ from auvdock.controllers.settings import MPCSettings
 from auvdock.controllers.status import STATUS_LOST_TARGET, STATUS_SETTLING
 from auvdock.controllers.world import ControllerWorld
 from auvdock.estimation.dock_knowledge import TelemetryDock
-from auvdock.estimation.flow_filter import EstimatorSettings
+from auvdock.estimation.settings import EstimatorSettings
 from auvdock.estimation.stage import EstimationStage, TruthStage, build_estimation
 from auvdock.loop.guidance import GUIDANCE_SERIES, Guidance, GuidanceSettings
 from auvdock.runtime import timing

@@ -27,10 +27,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from types import SimpleNamespace
-from typing import Any, overload
+from typing import TYPE_CHECKING, Any, overload
 
-import casadi as ca
 import numpy as np
+
+if TYPE_CHECKING:
+    import casadi as ca
 
 __all__ = [
     "FlowField",
@@ -47,10 +49,19 @@ _NP = SimpleNamespace(sin=np.sin, cos=np.cos, zeros_like=np.zeros_like, stack=np
 
 
 def _ca_stack(parts: list[Any], axis: int = -1) -> ca.SX:
+    import casadi as ca
+
     return ca.vertcat(*parts)
 
 
-_CA = SimpleNamespace(sin=ca.sin, cos=ca.cos, zeros_like=lambda x: 0 * x, stack=_ca_stack, pi=math.pi)
+def _casadi_lib() -> SimpleNamespace:
+    """The functions :meth:`FlowField._formula` takes, as CasADi's (imported on first use: a
+    mission is read, and the numpy face used, without CasADi)."""
+    import casadi as ca
+
+    return SimpleNamespace(sin=ca.sin, cos=ca.cos, zeros_like=lambda x: 0 * x, stack=_ca_stack, pi=math.pi)
+
+
 
 
 class FlowField:
@@ -95,7 +106,9 @@ class FlowField:
 
     def symbolic(self, p_ned: ca.SX | ca.MX, t: ca.SX | ca.MX | float) -> ca.SX | ca.MX:
         """CasADi expression of the water velocity (3x1, NED, m/s) at ``p_ned`` (3x1, m), ``t`` (s)."""
-        vn, ve = self._formula(p_ned[0], p_ned[1], t, _CA)
+        import casadi as ca
+
+        vn, ve = self._formula(p_ned[0], p_ned[1], t, _casadi_lib())
         return ca.vertcat(vn + 0 * p_ned[0], ve + 0 * p_ned[0], 0 * p_ned[0])
 
     def describe(self) -> str:

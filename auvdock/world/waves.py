@@ -38,7 +38,6 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-import casadi as ca
 import numpy as np
 
 from auvdock.world.constants import GRAVITY_M_S2
@@ -424,6 +423,8 @@ class WaveComponents:
         The same formula as :meth:`kinematics` (the components are constants of the expression;
         the depth is clamped at the mean surface with ``fmax``).
         """
+        import casadi as ca  # on first use: the sea is read and sampled (numpy) without CasADi
+
         if self.n_components == 0:
             return ca.vertcat(0 * p_ned[0], 0 * p_ned[0], 0 * p_ned[0])
         kn = ca.DM(self._kn)
