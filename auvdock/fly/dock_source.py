@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from pymavlink import mavutil
 
-from auvdock.vehicle.geometry import rotation_zyx
+from auvdock.vehicle.geometry import rotation_of
 from auvdock.vehicle.state import ATT, POS
 
 if TYPE_CHECKING:
@@ -45,7 +45,7 @@ class LandingTargetSource:
         self._last = id(lt)
         rel = np.array([lt.x, lt.y, lt.z])
         if lt.frame == mavutil.mavlink.MAV_FRAME_BODY_FRD:
-            p = x[POS] + rotation_zyx(*map(float, x[ATT])) @ rel
+            p = x[POS] + rotation_of(x[ATT]) @ rel
         elif lt.frame == mavutil.mavlink.MAV_FRAME_LOCAL_NED:
             p = frame.position(rel)
         else:

@@ -31,7 +31,7 @@ from auvdock.config.mission import Mission, parse_mission
 from auvdock.results.store import read_run
 from auvdock.sensing.measurements import GRAVITY
 from auvdock.vehicle.ardusub import thrust_from_channels
-from auvdock.vehicle.geometry import rotation_zyx
+from auvdock.vehicle.geometry import rotation_of
 
 __all__ = ["AxisResponse", "thrust_response", "main"]
 
@@ -67,7 +67,7 @@ def thrust_response(path: str | Path, mission: Mission | None = None) -> list[Ax
     zero = np.zeros(vehicle.n_thrusters)
 
     def specific_force(x: np.ndarray, u: np.ndarray) -> np.ndarray:
-        R = rotation_zyx(*map(float, x[3:6]))
+        R = rotation_of(x[3:6])
         xd = vehicle.state_derivative(x, u)
         return xd[6:9] + np.cross(x[9:12], x[6:9]) - R.T @ g_n
 

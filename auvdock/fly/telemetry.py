@@ -56,7 +56,7 @@ from auvdock.fly.units import (
 from auvdock.sensing.errors import sensor_errors
 from auvdock.sensing.readings import Reading
 from auvdock.sensing.settings import DEAD_RECKONED_SOURCES, SensorSettings
-from auvdock.vehicle.geometry import Rz, rotation_zyx, wrap_angle
+from auvdock.vehicle.geometry import Rz, rotation_of, wrap_angle
 
 if TYPE_CHECKING:
     from auvdock.config.mission import GeofenceSpec
@@ -86,10 +86,6 @@ _FRAME_SOURCES = ("ATTITUDE", "LOCAL_POSITION_NED")
 READING_HISTORY = 1500
 #: Parameters read for the depth (not checked): the surface pressures and the water's density.
 PRESSURE_PARAMETERS = ("BARO1_GND_PRESS", "BARO2_GND_PRESS", "BARO_SPEC_GRAV")
-
-
-def _rotation(angles: np.ndarray) -> np.ndarray:
-    return rotation_zyx(float(angles[0]), float(angles[1]), float(angles[2]))
 
 
 @dataclass(frozen=True)
@@ -132,7 +128,7 @@ class MissionFrame:
         p = self.position(np.array([pos.x, pos.y, pos.z]))
         v_ned = self.R @ np.array([pos.vx, pos.vy, pos.vz])
         theta = np.array([att.roll, att.pitch, wrap_angle(att.yaw + self.dpsi)])
-        nu1 = _rotation(theta).T @ v_ned
+        nu1 = rotation_of(theta).T @ v_ned
         nu2 = np.array([att.rollspeed, att.pitchspeed, att.yawspeed])
         return np.concatenate([p, theta, nu1, nu2])
 
@@ -467,6 +463,6 @@ class TelemetrySensors:
         if pos is not None and self.sensors.dvl.enabled:
             a, _ = self.latest("ATTITUDE")
             theta = np.array([a.roll, a.pitch, wrap_angle(a.yaw + frame.dpsi)])
-            v_b = _rotation(theta).T @ (frame.R @ np.array([pos.vx, pos.vy, pos.vz]))
+            v_b = rotation_of(theta).T @ (frame.R @ np.array([pos.vx, pos.vy, pos.vz]))
             out.append(Reading("dvl", at("LOCAL_POSITION_NED"), v_b, std["dvl"].copy()))
         return out

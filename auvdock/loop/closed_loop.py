@@ -48,7 +48,7 @@ from auvdock.estimation.stage import FORECAST_HORIZONS_S, forecast_rmse_key
 from auvdock.runtime.interrupts import SigintDeferred
 from auvdock.sensing.readings import Readings
 from auvdock.vehicle.actuators import ActuatorCommand, ActuatorPath
-from auvdock.vehicle.geometry import rotation_zyx, wrap_angle
+from auvdock.vehicle.geometry import rotation_of, wrap_angle
 from auvdock.vehicle.state import ATT, LIN, POS, YAW
 
 if TYPE_CHECKING:
@@ -287,10 +287,6 @@ def run_outcome(
         "setup_time_s": float(setup_time_s),
         "real_time_factor": float(t_end / wall_time_s) if wall_time_s > 0 else math.nan,
     }
-
-
-def _rotation(angles: np.ndarray) -> np.ndarray:
-    return rotation_zyx(float(angles[0]), float(angles[1]), float(angles[2]))
 
 
 class LoopRecorder:
@@ -658,7 +654,7 @@ def run_closed_loop(
                         if obs.true_flow_ned is None:  # unknown on a vehicle
                             series["flow_body_true_m_s"] = np.full(3, np.nan)
                         else:
-                            f_true = _rotation(x[ATT]).T @ obs.true_flow_ned
+                            f_true = rotation_of(x[ATT]).T @ obs.true_flow_ned
                             series["flow_body_true_m_s"] = f_true
                             err = float(np.linalg.norm(out.series["flow_estimate_m_s"] - f_true))
                             if math.isfinite(err):  # (no estimate while the filter settles)

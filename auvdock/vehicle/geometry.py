@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-__all__ = ["wrap_angle", "rotation_zyx", "Rz", "skew", "point_in_sensor_frame"]
+__all__ = ["wrap_angle", "rotation_zyx", "rotation_of", "Rz", "skew", "point_in_sensor_frame"]
 
 
 def wrap_angle(angle: float) -> float:
@@ -36,6 +36,12 @@ def rotation_zyx(roll: float, pitch: float, yaw: float) -> np.ndarray:
             [-sp, cp * sr, cp * cr],
         ]
     )
+
+
+def rotation_of(angles: np.ndarray) -> np.ndarray:
+    """:func:`rotation_zyx` of an attitude given as one array ``(roll, pitch, yaw)`` (rad; e.g. the
+    state's ``x[ATT]``), shape (3, 3): ``R_nb``, body vectors to NED."""
+    return rotation_zyx(float(angles[0]), float(angles[1]), float(angles[2]))
 
 
 def Rz(yaw: float) -> np.ndarray:

@@ -32,7 +32,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from auvdock.vehicle.geometry import rotation_zyx
+from auvdock.vehicle.geometry import rotation_of, rotation_zyx
 from auvdock.vehicle.state import NX
 
 __all__ = [
@@ -704,7 +704,7 @@ def dock_rotation(
     a = np.asarray(dock_attitude_rad, dtype=float)
     if a.shape != (3,):
         raise ValueError(f"dock_attitude_rad: must have 3 components (roll, pitch, yaw), got shape {a.shape}")
-    return rotation_zyx(float(a[0]), float(a[1]), float(a[2]))
+    return rotation_of(a)
 
 
 def points_in_dock_frame(
