@@ -10,10 +10,11 @@ is written with ``@`` and ``.T`` only, so the same formula serves numpy and CasA
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
-__all__ = ["wrap_angle", "rotation_zyx", "rotation_of", "Rz", "skew", "point_in_sensor_frame"]
+__all__ = ["wrap_angle", "zyx_entries", "rotation_zyx", "rotation_of", "Rz", "skew", "point_in_sensor_frame"]
 
 
 def wrap_angle(angle: float) -> float:
@@ -21,21 +22,26 @@ def wrap_angle(angle: float) -> float:
     return float((angle + math.pi) % (2.0 * math.pi) - math.pi)
 
 
+def zyx_entries(roll: Any, pitch: Any, yaw: Any, cos: Any = math.cos, sin: Any = math.sin) -> tuple[Any, ...]:
+    """The nine entries of ``R = Rz(yaw) Ry(pitch) Rx(roll)``, row-major (Fossen eq. 2.31): the one
+    formula of the ZYX rotation, in numbers (``math``'s cos and sin, the default) or in CasADi's
+    (:func:`auvdock.vehicle.model.Rzyx`)."""
+    cr, sr = cos(roll), sin(roll)
+    cp, sp = cos(pitch), sin(pitch)
+    cy, sy = cos(yaw), sin(yaw)
+    return (
+        cy * cp, -sy * cr + cy * sp * sr, sy * sr + cy * cr * sp,
+        sy * cp, cy * cr + sr * sp * sy, -cy * sr + sp * sy * cr,
+        -sp, cp * sr, cp * cr,
+    )  # fmt: skip
+
+
 def rotation_zyx(roll: float, pitch: float, yaw: float) -> np.ndarray:
     """ZYX Euler rotation ``R = Rz(yaw) Ry(pitch) Rx(roll)``, shape (3, 3) (Fossen eq. 2.31).
 
     With the vehicle attitude (rad) this is ``R_nb``, mapping body vectors to NED.
     """
-    cr, sr = math.cos(roll), math.sin(roll)
-    cp, sp = math.cos(pitch), math.sin(pitch)
-    cy, sy = math.cos(yaw), math.sin(yaw)
-    return np.array(
-        [
-            [cy * cp, -sy * cr + cy * sp * sr, sy * sr + cy * cr * sp],
-            [sy * cp, cy * cr + sr * sp * sy, -cy * sr + sp * sy * cr],
-            [-sp, cp * sr, cp * cr],
-        ]
-    )
+    return np.array(zyx_entries(roll, pitch, yaw)).reshape(3, 3)
 
 
 def rotation_of(angles: np.ndarray) -> np.ndarray:

@@ -49,7 +49,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from auvdock.vehicle.geometry import skew
+from auvdock.vehicle.geometry import skew, zyx_entries
 from auvdock.vehicle.params import VehicleParams
 from auvdock.vehicle.state import ANG, ETA, NU, NX
 from auvdock.vehicle.thrusters import allocation_matrix
@@ -80,15 +80,10 @@ def Smtrx(a: Sym) -> Sym:
 
 
 def Rzyx(phi: Sym, theta: Sym, psi: Sym) -> Sym:
-    """Rotation matrix R (3x3) from {b} to {n}, ZYX Euler angles (rad)."""
-    cphi, sphi = ca.cos(phi), ca.sin(phi)
-    cth, sth = ca.cos(theta), ca.sin(theta)
-    cpsi, spsi = ca.cos(psi), ca.sin(psi)
-    return ca.vertcat(
-        ca.horzcat(cpsi * cth, -spsi * cphi + cpsi * sth * sphi, spsi * sphi + cpsi * cphi * sth),
-        ca.horzcat(spsi * cth, cpsi * cphi + sphi * sth * spsi, -cpsi * sphi + sth * spsi * cphi),
-        ca.horzcat(-sth, cth * sphi, cth * cphi),
-    )
+    """Rotation matrix R (3x3) from {b} to {n}, ZYX Euler angles (rad): the one formula
+    (:func:`auvdock.vehicle.geometry.zyx_entries`) in CasADi."""
+    e = zyx_entries(phi, theta, psi, ca.cos, ca.sin)
+    return ca.vertcat(ca.horzcat(*e[0:3]), ca.horzcat(*e[3:6]), ca.horzcat(*e[6:9]))
 
 
 def Tzyx(phi: Sym, theta: Sym) -> Sym:

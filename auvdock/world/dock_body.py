@@ -32,7 +32,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from auvdock.vehicle.geometry import rotation_of, rotation_zyx
+from auvdock.vehicle.geometry import rotation_of, rotation_zyx, zyx_entries
 from auvdock.vehicle.state import NX
 
 __all__ = [
@@ -859,14 +859,7 @@ _Vec3 = tuple[float, float, float]
 
 def _rzyx(roll: float, pitch: float, yaw: float) -> _Mat3:
     """``rotation_zyx`` as 9 Python floats, row-major."""
-    cr, sr = math.cos(roll), math.sin(roll)
-    cp, sp = math.cos(pitch), math.sin(pitch)
-    cy, sy = math.cos(yaw), math.sin(yaw)
-    return (
-        cy * cp, -sy * cr + cy * sp * sr, sy * sr + cy * cr * sp,
-        sy * cp, cy * cr + sr * sp * sy, -cy * sr + sp * sy * cr,
-        -sp, cp * sr, cp * cr,
-    )  # fmt: skip
+    return zyx_entries(roll, pitch, yaw)
 
 
 def _transpose(a: list[float] | _Mat3) -> _Mat3:
