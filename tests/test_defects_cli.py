@@ -1,7 +1,7 @@
 """Command-line defects: one format for every option error, shipped mission names in ``markers``,
 Ctrl-C (SIGINT) for a command started with SIGINT ignored.
 
-Option errors go through :func:`auvdock.cli.main` (the console script), as a user sees them:
+Option errors go through :func:`auvdock.cli.main` (what the console script runs), as a user sees them:
 one line ``error: --OPTION: <problem in plain words>`` and exit 2.
 """
 

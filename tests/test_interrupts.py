@@ -91,3 +91,25 @@ def test_sim_sigint_before_the_run_does_not_take_an_earlier_file_for_its_own(tmp
     assert len(lines) == 1 and lines[0].startswith("interrupted"), what
     assert "results are complete" not in lines[0], what  # this run wrote nothing
     assert read_run(out / "diagonal_naive.h5").complete  # the earlier run's file, left as it was
+
+
+def test_importing_the_command_line_leaves_ctrl_c_to_the_importer() -> None:
+    """A library user (a notebook) who imports ``auvdock.cli`` and presses Ctrl-C while it loads gets
+    Python's KeyboardInterrupt, not an exit of the whole process (the console script's quiet exit 130
+    is installed by ``auvdock.__main__``, the program's entry, only)."""
+    code = (
+        "import os, signal, sys\n"
+        "class Finder:\n"
+        "    @staticmethod\n"
+        "    def find_spec(name, path=None, target=None):\n"
+        "        if name == 'auvdock.cli.campaign':\n"
+        "            os.kill(os.getpid(), signal.SIGINT)\n"
+        "sys.meta_path.insert(0, Finder())\n"
+        "try:\n"
+        "    import auvdock.cli\n"
+        "except KeyboardInterrupt:\n"
+        "    print('KeyboardInterrupt')\n"
+        "print(signal.getsignal(signal.SIGINT) is signal.default_int_handler)\n"
+    )
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=ROOT)
+    assert (r.returncode, r.stdout, r.stderr) == (0, "KeyboardInterrupt\nTrue\n", "")

@@ -22,24 +22,14 @@ module             commands
 
 from __future__ import annotations
 
-import os
 import re
 import signal
 import sys
 import threading
 
-
-def _interrupted_while_starting(signum, frame) -> None:  # pragma: no cover - timing
-    """Ctrl-C while the command line loads (nothing started, nothing to save): exit 130, quietly."""
-    os.write(2, b"interrupted\n")
-    os._exit(130)
-
-
-_MAIN_THREAD = threading.current_thread() is threading.main_thread()
-if _MAIN_THREAD:
-    _previous_sigint = signal.signal(signal.SIGINT, _interrupted_while_starting)
-
-# the commands are registered in this order (the order of --help)
+# the commands are registered in this order (the order of --help); a Ctrl-C while they load is the
+# console script's to handle (auvdock.__main__), not this package's: a library user who imports it
+# keeps Python's own KeyboardInterrupt
 # isort: off
 from auvdock.cli import validate, sim, campaign, fly, sitl, bench, camera, bem, cache  # noqa: F401, E402
 
@@ -52,14 +42,12 @@ except ImportError:  # pragma: no cover
 from auvdock.cli.app import app, err_console, interrupt_reported  # noqa: E402
 from auvdock.runtime.interrupts import sigterm_interrupts  # noqa: E402
 
-if _MAIN_THREAD:
-    signal.signal(signal.SIGINT, _previous_sigint)
-
 __all__ = ["app", "main"]
 
 
 def main(argv: list[str] | None = None) -> None:
-    """Console-script entry point: runs a command and exits with its status.
+    """Run a command and exit with its status (the console script's entry, :func:`auvdock.__main__.main`,
+    loads the commands and calls this).
 
     0 success; 1 a run that did not dock or a command that failed at run time; 2 bad input
     (one line on stderr: ``error: ...``); 130 interrupted (Ctrl-C), with no traceback.

@@ -1,6 +1,6 @@
-"""``python -m auvdock.cli``: the ``auvdock`` command."""
+"""``python -m auvdock.cli``: the ``auvdock`` command (as ``python -m auvdock``)."""
 
-from auvdock.cli import main
+from auvdock.__main__ import main
 
 if __name__ == "__main__":
     main()

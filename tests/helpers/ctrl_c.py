@@ -3,7 +3,7 @@
     python tests/helpers/ctrl_c.py MOMENT sim diagonal -c naive --out runs
 
 runs ``auvdock sim diagonal -c naive --out runs`` exactly as the console script does
-(:func:`auvdock.cli.main`), and sends the process a real SIGINT (``os.kill``) once, at MOMENT:
+(:func:`auvdock.__main__.main`), and sends the process a real SIGINT (``os.kill``) once, at MOMENT:
 
 ``import:MODULE``
     when MODULE is first imported (``import:auvdock.cli.campaign``: while the command line
@@ -148,6 +148,6 @@ def install(moment: str) -> None:
 if __name__ == "__main__":
     install(sys.argv[1])
     sys.argv = ["auvdock", *sys.argv[2:]]
-    from auvdock.cli import main
+    from auvdock.__main__ import main  # the console script's entry
 
     main()
