@@ -190,8 +190,8 @@ def test_catalogue_agrees_with_the_recording_code() -> None:
     from auvdock.loop.simulated_plant import SEA_COLUMNS
     from auvdock.vehicle.ardusub import CHANNELS
 
-    assert run_module._FORECAST_HORIZONS_S == FORECAST_HORIZONS_S
-    assert run_module._GUIDANCE_PHASES == GUIDANCE_PHASES and run_module._CAMERA_STATES == CAMERA_STATES
+    assert run_module.FORECAST_HORIZONS_S is FORECAST_HORIZONS_S  # one definition, imported
+    assert run_module.GUIDANCE_PHASES is GUIDANCE_PHASES and run_module._CAMERA_STATES == CAMERA_STATES
     assert run_module._KNOWN["channels_us"].axes[0][1] == CHANNELS
     for table in (FSEMPC.extra_series, ESTIMATION_SERIES, FORECAST_SERIES, WAVE_SERIES, GUIDANCE_SERIES):
         for name, shape in table.items():

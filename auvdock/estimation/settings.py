@@ -11,7 +11,11 @@ from pydantic import Field
 
 from auvdock.config.schema import PosFloat, Strict, Vec3
 
-__all__ = ["EstimatorSettings", "NavigationSettings"]
+__all__ = ["EstimatorSettings", "NavigationSettings", "FORECAST_HORIZONS_S"]
+
+#: How far ahead the dock's forecast is recorded (``dock_forecast_m``, with ``sensors.dock_telemetry``)
+#: and scored, s (here, with no CasADi, so that the results' views name them without the stage).
+FORECAST_HORIZONS_S = (0.5, 1.0, 2.0, 3.0)
 
 
 class EstimatorSettings(Strict):

@@ -46,7 +46,7 @@ import numpy as np
 from auvdock.estimation.delay import ThrustSchedule, mean_thrust
 from auvdock.estimation.estimate import Estimate
 from auvdock.estimation.navigation_filter import NavEstimate, NavigationFilter, WaveModel
-from auvdock.estimation.settings import NavigationSettings
+from auvdock.estimation.settings import FORECAST_HORIZONS_S, NavigationSettings
 from auvdock.sensing.readings import FlowSensing, Readings
 from auvdock.vehicle.model import rk4
 from auvdock.vehicle.state import ANG, ATT, ETA, LIN, NX
@@ -91,8 +91,6 @@ WAVE_SERIES: dict[str, tuple[int, ...]] = {
     "estimated_wave_velocity_std_m_s": (3,),
 }
 
-#: How far ahead the dock's forecast is recorded (``dock_forecast_m``, with ``sensors.dock_telemetry``), s.
-FORECAST_HORIZONS_S = (0.5, 1.0, 2.0, 3.0)
 
 
 def forecast_rmse_key(horizon_s: float) -> str:

@@ -49,6 +49,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from auvdock.estimation.settings import FORECAST_HORIZONS_S
+from auvdock.loop.guidance import GUIDANCE_PHASES
 from auvdock.results.store import (
     _RESERVED_ATTRS,
     BASE_SERIES,
@@ -83,13 +85,10 @@ _RATE = ("p", "q", "r")
 #: accelerometer's three (body axes) and the depth rate's.
 INNOVATION_COMPONENTS = ("accel_u", "accel_v", "accel_w", "depth_rate")
 _INNOVATION_UNITS = ("m/s^2", "m/s^2", "m/s^2", "m/s")
-# auvdock.estimation.stage.FORECAST_HORIZONS_S (not imported: it brings CasADi; a test keeps them equal)
-_FORECAST_HORIZONS_S = (0.5, 1.0, 2.0, 3.0)
 # their labels 0p5s, 1s, ...: as the outcome's keys (a dot would split a DataFrame's column name)
-_HORIZON_LABELS = tuple(f"{h:g}s".replace(".", "p") for h in _FORECAST_HORIZONS_S)
-# the code names of the integer-coded series (auvdock.loop.guidance.GUIDANCE_PHASES,
-# auvdock.fly.camera.CAMERA_STATES; not imported, a test keeps them equal)
-_GUIDANCE_PHASES = ("approach", "transit", "search", "align", "coast", "back_off", "given_up")
+_HORIZON_LABELS = tuple(f"{h:g}s".replace(".", "p") for h in FORECAST_HORIZONS_S)
+# the code names of fly's older camera tracker's states (auvdock.fly.camera.CAMERA_STATES; not imported:
+# the fly package loads the MAVLink session; a test keeps them equal)
 _CAMERA_STATES = ("searching", "tracking", "holding", "lost")
 #: The information's unit: the flow filter's gramian G sums H^T R^-1 H, (m/s)^-2.
 INFORMATION_UNITS = "s^2/m^2"
@@ -394,7 +393,7 @@ _KNOWN: dict[str, _Info] = {
     ),
     # guidance with a dock camera (auvdock.loop.guidance)
     "guidance_phase": _Info(
-        (), "", "", "guidance phase", "phase of the guidance (flag_meanings)", _GUIDANCE_PHASES
+        (), "", "", "guidance phase", "phase of the guidance (flag_meanings)", GUIDANCE_PHASES
     ),
     "dock_fix_age_s": _Info((), "s", "", "dock fix age", "age of the newest camera fix of the dock"),
     # a run in a sea (auvdock.loop.simulated_plant)
@@ -953,7 +952,7 @@ class Run:
                 )
                 attrs = {"long_name": long_name, "description": description}
                 if dim == "forecast_horizon_s":
-                    coords[dim] = (dim, np.array(_FORECAST_HORIZONS_S), {**attrs, "units": "s"})
+                    coords[dim] = (dim, np.array(FORECAST_HORIZONS_S), {**attrs, "units": "s"})
                 else:
                     coords[dim] = (dim, list(labels), attrs)
             return dim
