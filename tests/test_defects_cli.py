@@ -224,20 +224,21 @@ def test_sweep_started_with_sigint_ignored_stops_on_sigint(tmp_path) -> None:
     assert not any(_alive(pid) for pid in workers)
 
 
-def test_fly_refuses_the_simulated_dock_camera_before_connecting(capsys, tmp_path) -> None:
-    """tank_0p6hz flies on the simulated dock camera (sensors.dock_camera): fly finds a dock with a
-    camera only through dock.source camera, so it refuses before connecting: exit 2, one line naming
-    the field, nothing written (the output in tmp_path, not the mission's runs/ in the clone)."""
-    code, err = _main(["fly", "tank_0p6hz", "--port", "udpin:127.0.0.1:9", "--out", str(tmp_path)], capsys)
+def test_fly_refuses_the_dock_telemetry_before_connecting(capsys, tmp_path) -> None:
+    """basin_regular forecasts the dock's motion from its telemetry (sensors.dock_telemetry), which fly does
+    not receive yet: it refuses before connecting: exit 2, one line naming the field and what is missing,
+    nothing written (the output in tmp_path, not the mission's runs/ in the clone).  (It was tank_0p6hz's
+    dock camera, which fly now flies.)"""
+    code, err = _main(["fly", "basin_regular", "--port", "udpin:127.0.0.1:9", "--out", str(tmp_path)], capsys)
     assert code == 2, err
     lines = err.strip().splitlines()
     assert (
         len(lines) == 1
         and lines[0].startswith("error: ")
-        and "tank_0p6hz.yaml: sensors.dock_camera: " in lines[0]
+        and "basin_regular.yaml: sensors.dock_telemetry: " in lines[0]
     )
     assert lines[0].endswith(
-        "the simulated dock camera is for sim; fly finds the dock with a camera through dock.source: camera "
-        "(camera section), or flies on the vehicle's own position (tank_positioned)"
+        "fly does not yet receive the dock's telemetry over MAVLink (sim only); fly takes the dock's motion "
+        "from its model (dock.heave) or a tracked dock (dock.source)"
     )
     assert list(tmp_path.iterdir()) == []

@@ -41,7 +41,7 @@ import numpy as np
 from auvdock.camera.layout import MarkerLayout
 from auvdock.camera.model import CameraModel, CameraMount, camera_from_dock
 from auvdock.camera.pose import MarkerDetector, estimate_dock_pose
-from auvdock.camera.render import render_view
+from auvdock.camera.render import Water, render_view
 from auvdock.camera.video_in import Frame, FrameSource, LatestFrameGrabber
 from auvdock.runtime.clock import Clock, wall_clock
 from auvdock.vehicle.geometry import rotation_zyx
@@ -84,6 +84,9 @@ class SyntheticCamera:
         Noise seed.
     clock : Clock, optional
         What frames are paced on and stamped with (default the wall clock).
+    water : Water, optional
+        The water between camera and markers (:class:`auvdock.camera.render.Water`: each marker's
+        contrast attenuated with its range); None: clear.
     """
 
     def __init__(
@@ -101,6 +104,7 @@ class SyntheticCamera:
         dropout_s: list[list[float]] | None = None,
         seed: int = 0,
         clock: Clock | None = None,
+        water: Water | None = None,
     ) -> None:
         if rate_hz <= 0:
             raise ValueError(f"rate_hz must be positive, got {rate_hz}")
@@ -111,6 +115,7 @@ class SyntheticCamera:
         self.offset = np.asarray(offset_ned_m, dtype=float)
         self.dropout = [(float(a), float(b)) for a, b in (dropout_s or [])]
         self._rng = np.random.default_rng(seed)
+        self.water = water
         self.clock: Clock = wall_clock if clock is None else clock
         self._next = self.clock.now()
         self._index = 0
@@ -171,6 +176,7 @@ class SyntheticCamera:
             noise_std=self.noise_std,
             blur_px=self.blur_px,
             rng=self._rng,
+            water=self.water,
         )
 
     def read(self, timeout_s: float = 1.0) -> Frame | None:

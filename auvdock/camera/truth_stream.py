@@ -100,17 +100,40 @@ class TruthCameraStream:
         """The mission's camera: ``mission.build_camera()`` (its calibration file, or the ideal
         640x480 80 deg camera for ``camera.source: synthetic``), ``camera.mount``, the dock's
         markers, ``camera.synthetic`` (rate, noise, blur, dock offset, dropouts); image noise
-        seeded with ``seed`` (default ``mission.seed``).
+        seeded with ``seed`` (default ``mission.seed``).  With the dock camera as a sensor
+        (``sensors.dock_camera``, ``estimation: filter``) it renders what ``sim`` sees: the true dock
+        for the mission's seed (``dock.position_std_m``), in the water of
+        ``sensors.dock_camera.visibility_m``, at ``sensors.dock_camera.rate_hz``; ``pose_fn``'s time
+        must then be the clock the stand-in moves its dock on (vehicle-sim's ``t``).
 
         Raises
         ------
         MissionError
             The mission's camera file is missing or does not read.
         """
-        renderer = SyntheticCamera.from_mission(
-            mission, mission.dock.build(), pose_fn, seed=seed, clock=clock
-        )
-        rate = mission.camera.synthetic.rate_hz
+        s = mission.sensors.dock_camera
+        if mission.estimation == "filter" and s.enabled:  # the camera as a sensor: the truth, as sim sees it
+            from auvdock.camera.render import Water
+
+            c = mission.camera
+            renderer = SyntheticCamera(
+                mission.build_camera(),
+                mission.dock.marker_layout(),
+                c.mount.build(),
+                mission.build_dock(truth=True),
+                pose_fn,
+                rate_hz=s.rate_hz,
+                noise_std=c.synthetic.noise_std,
+                blur_px=c.synthetic.blur_px,
+                seed=mission.seed if seed is None else int(seed),
+                clock=clock,
+                water=Water(s.visibility_m),
+            )
+            rate = s.rate_hz
+        else:
+            dock = mission.dock.build()
+            renderer = SyntheticCamera.from_mission(mission, dock, pose_fn, seed=seed, clock=clock)
+            rate = mission.camera.synthetic.rate_hz
         return cls(renderer, pose_fn, host, port, rate_hz=rate, encoder=encoder, clock=clock)
 
     # --- frames ------------------------------------------------------------------------------

@@ -11,6 +11,7 @@ from __future__ import annotations
 import contextlib
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import typer
 from rich.markup import escape
@@ -29,9 +30,13 @@ from auvdock.cli.app import (
     positive_timeout,
     water_line,
 )
-from auvdock.config.mission import MissionError
+from auvdock.config.mission import Mission, MissionError
 from auvdock.runtime.clock import Clock, wall_clock
 from auvdock.runtime.interrupts import interrupt_name
+
+if TYPE_CHECKING:
+    from auvdock.camera.truth_stream import TruthCameraStream
+    from auvdock.standins.vehicle_sim import VehicleSim
 
 #: The clock ``fly`` and ``vehicle-sim`` wait and pace on.
 clock: Clock = wall_clock
@@ -221,16 +226,30 @@ def vehicle_sim(
         help="Write the truth (the vehicle's and the dock's trajectories, the arming) to this results "
         "file, complete when stopped; score a flight on it with auvdock truth-check.",
     ),
+    camera: str | None = typer.Option(
+        None,
+        "--camera",
+        help="udp:HOST:PORT (or udp:PORT, to 127.0.0.1): stream the camera's view of the true pose as "
+        "RTP/H.264, as BlueOS would, for fly with camera.source: udp:PORT. Default: no camera.",
+    ),
 ) -> None:
     """Run auvdock's 6-DOF simulator as an ArduSub MAVLink vehicle (for rehearsing and testing fly)."""
+    from auvdock.cli.sitl import parse_camera_target
     from auvdock.config.catalog import missions_dir
-    from auvdock.fly.link import connection_string
+    from auvdock.fly.link import check_host, connection_string
     from auvdock.standins.vehicle_sim import VehicleSim
 
     try:
         port = connection_string(port)
     except ValueError as e:
         fail_input(f"--port {port}: {e}")
+    target: tuple[str, int] | None = None
+    if camera is not None:
+        try:
+            target = parse_camera_target(camera)
+            check_host(target[0])
+        except ValueError as e:
+            fail_input(f"--camera {camera}: {e}")
     if mission is not None and mission_option is not None:
         fail_input(f"--mission {mission_option}: the mission is also given as {mission}; give it once")
     mission = mission if mission is not None else mission_option
@@ -248,18 +267,45 @@ def vehicle_sim(
         ),
         soft_wrap=True,
     )
+    stream = None
     try:
         sim = VehicleSim(
             m, port=port, speed=speed, clock=clock, noise=noise, hold_start=hold, truth_out=truth_out
         )
+        if target is not None:
+            stream = _truth_camera(m, sim, target, camera)
+            console.print(f"camera: {stream.description}", markup=False, highlight=False, soft_wrap=True)
+            sim.start()
+            stream.start()
         sim.run_forever()
     except (OSError, ValueError) as e:
         fail_input(f"--port {port}: {e}")
+    finally:
+        if stream is not None:
+            stream.stop()
     truth = f"; truth in {truth_out}" if truth_out is not None and truth_out.is_file() else ""
     events = "events: " + ", ".join(e.kind for e in sim.events) if sim.events else "no events"
     console.print(
         f"stopped at t = {sim.t:.1f} s; {events}{truth}", markup=False, highlight=False, soft_wrap=True
     )
+
+
+def _truth_camera(
+    m: Mission, sim: VehicleSim, target: tuple[str, int], option: str | None
+) -> TruthCameraStream:
+    """vehicle-sim's --camera: the view of its true pose as RTP/H.264 (exit 2 on a bad camera or encoder)."""
+    from auvdock.camera.truth_stream import TruthCameraStream
+    from auvdock.camera.video_common import VideoSourceError
+    from auvdock.camera.video_out import h264_encoder
+
+    try:
+        h264_encoder()
+        return TruthCameraStream.from_mission(m, sim.pose, *target, clock=clock)
+    except MissionError as e:
+        fail_input(str(e))
+    except (VideoSourceError, ImportError, OSError, ValueError) as e:
+        fail_input(f"--camera {option}: {e}")
+    raise AssertionError("unreachable")
 
 
 @app.command("truth-check")

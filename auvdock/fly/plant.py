@@ -64,6 +64,8 @@ class MavlinkPlant:
         s._now_us = s._take_telemetry("auvd_step", int(round(t / s.dt)))
         if not self._clock_set:
             s._set_dock_clock(t)
+            if s.camera_sensor is not None and s._mission_zero_s is not None:
+                s.camera_sensor.start_mission_clock(s._mission_zero_s)
             self._clock_set = True
         s._check_takeover()
         s._check_limits()
@@ -93,8 +95,13 @@ class MavlinkPlant:
             s._follow_vehicle_clock(link.offset_s)
             offset = link.offset_s
             state_t = s.telemetry.sample_time("LOCAL_POSITION_NED", t, s._now_us, offset)
+        if s.camera_sensor is not None:  # the dock camera's fixes: readings of the navigation filter
+            fixes, sensor_series = s.camera_sensor.take()
+            camera_series.update(sensor_series)
+        else:
+            fixes = []
         if steer:  # the readings are taken (marked read) only when the estimation stage runs
-            suite = s.telemetry.readings(t, s._now_us, offset)
+            suite = s.telemetry.readings(t, s._now_us, offset) + fixes
             readings = Readings(t, suite, x.copy(), None, v_c, state_t=state_t)
             specific_force = s.telemetry.specific_force
         else:

@@ -77,6 +77,7 @@ from auvdock.controllers.registry import CONTROLLERS, split_controller
 from auvdock.controllers.status import STATUS_NAMES
 from auvdock.estimation.delay import DelayCompensation
 from auvdock.fly.camera import CAMERA_SERIES, CameraOpenError, CameraTracking
+from auvdock.fly.camera_sensor import CAMERA_SENSOR_SERIES, SYNTHETIC_NEEDS, CameraSensor
 from auvdock.fly.conformance import PARAMETER_GROUPS, check_parameters, describe, parameter_names
 from auvdock.fly.dock_source import LandingTargetSource
 from auvdock.fly.link import LinkError, MavlinkLink
@@ -103,7 +104,7 @@ from auvdock.loop import closed_loop
 from auvdock.loop.autopilot import build_autopilot
 from auvdock.loop.closed_loop import LoopResult
 from auvdock.loop.closed_loop import Progress as LoopProgress
-from auvdock.loop.verdict import MarginVerdict, Verdict
+from auvdock.loop.verdict import CaptureVerdict, MarginVerdict, Verdict
 from auvdock.runtime.clock import Clock
 from auvdock.runtime.interrupts import SigintDeferred, interrupt_name
 from auvdock.runtime.stderr_capture import StderrCapture
@@ -238,8 +239,10 @@ def check_flyable(mission: Mission, controller: str | None = None) -> Vehicle:
     MissionError
         Naming the mission's field: a vehicle that is not an 8-thruster BlueROV2 Heavy (ArduSub
         VECTORED_6DOF), a flow-estimating controller with ``estimation: truth`` (the paper's simulated
-        sensing of the water-relative velocity, which no vehicle has), a WEC dock (the simulated sea's),
-        the simulated dock camera or dock telemetry (sim's sensors), a camera file that is missing or bad.
+        sensing of the water-relative velocity, which no vehicle has), a WEC dock in a sea and the dock's
+        telemetry (not yet flown: each says what a vehicle would need), the dock camera as a sensor
+        together with ``dock.source: camera`` (one camera path per flight), a camera file that is
+        missing or bad (a real camera's is required; the synthetic one is the ideal camera without).
     """
     where = mission.source or mission.name
     vehicle = mission.build_vehicle()
@@ -263,24 +266,26 @@ def check_flyable(mission: Mission, controller: str | None = None) -> Vehicle:
         raise MissionError(
             where,
             "dock.wec",
-            "a WEC dock in a simulated sea is for sim; fly needs the dock's motion model (dock.heave)",
-        )
-    if mission.sensors.dock_camera.enabled:
-        # the simulated camera of the sensor suite: on a vehicle the camera's fixes re-anchor the
-        # dock through dock.source camera (auvdock.fly.camera), not yet through the filter
-        raise MissionError(
-            where,
-            "sensors.dock_camera",
-            "the simulated dock camera is for sim; fly finds the dock with a camera through dock.source: "
-            "camera (camera section), or flies on the vehicle's own position (tank_positioned)",
+            "fly does not yet fly a WEC dock in a sea (sim only: a vehicle would need the dock's telemetry); "
+            "fly needs the dock's motion model (dock.heave)",
         )
     if mission.sensors.dock_telemetry.enabled:
         raise MissionError(
             where,
             "sensors.dock_telemetry",
-            "the simulated dock telemetry is for sim; fly takes the dock's motion from its model "
-            "(dock.heave) or a tracked dock (dock.source)",
+            "fly does not yet receive the dock's telemetry over MAVLink (sim only); fly takes the dock's "
+            "motion from its model (dock.heave) or a tracked dock (dock.source)",
         )
+    camera_sensor = mission.estimation == "filter" and mission.sensors.dock_camera.enabled
+    if camera_sensor and mission.dock.source != "model":
+        raise MissionError(
+            where,
+            "sensors.dock_camera",
+            f"the dock camera is a sensor of the navigation filter, and dock.source: {mission.dock.source} "
+            "tracks the dock apart from it; choose one (dock.source: model with sensors.dock_camera)",
+        )
+    if camera_sensor:
+        mission.build_camera()  # a missing or bad camera file; a real camera's is required
     if mission.dock.source == "camera":
         mission.build_camera()  # a missing or bad camera file
     return vehicle
@@ -337,6 +342,8 @@ class FlySession:
         self.dt = self.autopilot.dt
         self.events: list[tuple[float, str]] = []
         self.camera: CameraTracking | None = None
+        #: The dock camera as the navigation filter's sensor (sensors.dock_camera), once started.
+        self.camera_sensor: CameraSensor | None = None
         self._t0 = self.clock.now()
         self._frame: Any = None
         self._now_us = 0
@@ -476,7 +483,15 @@ class FlySession:
         out = {name: rate for name in TELEMETRY_MESSAGES}
         for name, r in CONTROL_STREAMS.items():
             out[name] = 1.0 / self.dt if r is None else r
+        if self._synthetic_sensor:  # the simulator's truth the synthetic camera renders from
+            out["SIM_STATE"] = max(rate, self.mission.sensors.dock_camera.rate_hz)
         return out
+
+    @property
+    def _synthetic_sensor(self) -> bool:
+        """The dock camera is a sensor and its frames are rendered here (camera.source: synthetic)."""
+        m = self.mission
+        return m.estimation == "filter" and m.sensors.dock_camera.enabled and m.camera.source == "synthetic"
 
     def _take_telemetry(self, marker: str, value: int = 0) -> int:
         """The messages received since the last call into :attr:`telemetry` and :attr:`state`
@@ -543,6 +558,8 @@ class FlySession:
             out.append("SCALED_PRESSURE2 or SCALED_PRESSURE or VFR_HUD")
         if self.mission.fly.min_battery_v > 0 and not self.state.battery_reported:
             out.append("SYS_STATUS (battery)")
+        if self._synthetic_sensor and self.telemetry.latest("SIM_STATE")[0] is None:
+            out.append(SYNTHETIC_NEEDS)
         return out
 
     def _wait_telemetry(self) -> None:
@@ -601,7 +618,19 @@ class FlySession:
         self._event(f"{tel.describe_frame()} (the mean of {n_pos} positions and {n_att} headings{how})")
 
     def _start_camera(self) -> None:
-        """dock.source: camera -- open the frame source and start detecting."""
+        """The camera: sensors.dock_camera (a sensor of the navigation filter) or dock.source: camera
+        (the older tracker of a point dock) -- open the frame source and start detecting."""
+        m = self.mission
+        if m.estimation == "filter" and m.sensors.dock_camera.enabled:
+            try:
+                self.camera_sensor = CameraSensor(
+                    m, self.clock, self._model_dock, lambda: self.telemetry.latest("SIM_STATE"), self._event
+                )
+            except (OSError, ValueError, RuntimeError) as e:
+                raise FlyAbortError(f"camera: {e}") from None
+            self.camera_sensor.start()
+            self._event(f"camera: {self.camera_sensor.description}, a sensor of the navigation filter")
+            return
         if self.mission.dock.source != "camera":
             return
         assert isinstance(self.dock, TrackedDock)  # dock.source: camera tracks the dock (_build)
@@ -703,7 +732,10 @@ class FlySession:
 
     def _open_results(self) -> None:
         m = self.mission
-        self._plant = MavlinkPlant(self, CAMERA_SERIES if self.camera is not None else {})
+        camera_series = CAMERA_SERIES if self.camera is not None else {}
+        if self.camera_sensor is not None:
+            camera_series = CAMERA_SENSOR_SERIES
+        self._plant = MavlinkPlant(self, camera_series)
         self._rec = FlyRecorder(
             self.out,
             mission=m,
@@ -760,13 +792,7 @@ class FlySession:
             progress=progress,
             on_event=self._event,
             control_guard=quiet,
-            verdict=MarginVerdict(
-                self.mission.docking.tolerance_m,
-                self.dock,
-                self.mission.sensors.position.figures()[2],
-                frame_cov=self.telemetry.frame_cov,
-                position_bias_std_m=self.mission.sensors.position.bias_std_m,
-            ),
+            verdict=self._verdict(),
         )
         return _Ending(
             result.reason,
@@ -776,6 +802,20 @@ class FlySession:
             t_end=result.t_end,
             verdict=result.verdict,
         )
+
+    def _verdict(self) -> MarginVerdict | CaptureVerdict:
+        """The docking rule on the estimate (:mod:`auvdock.loop.verdict`): the point rule, or with
+        ``docking.criterion: capture`` captured with a margin, against the dock's body."""
+        m = self.mission
+        point = MarginVerdict(
+            m.docking.tolerance_m,
+            self.dock,
+            m.sensors.position.figures()[2],
+            frame_cov=self.telemetry.frame_cov,
+            position_bias_std_m=m.sensors.position.bias_std_m,
+        )
+        contact = m.build_contact(self._model_dock.dock)
+        return point if contact is None else CaptureVerdict(point, contact)
 
     # -- safety checks --------------------------------------------------------------------
     def _check_takeover(self) -> None:
@@ -999,6 +1039,8 @@ class FlySession:
         armed or disarmed as they left it."""
         if self.camera is not None:
             self.camera.stop()
+        if self.camera_sensor is not None:
+            self.camera_sensor.stop()
         actions = (
             (self.link.release_overrides,)
             if takeover

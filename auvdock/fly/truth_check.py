@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from auvdock.results.store import RunResults, read_run
-from auvdock.standins.truth_record import TRUTH_SOURCE
+from auvdock.standins.truth_record import CONTACT_STATUSES, TRUTH_SOURCE
 from auvdock.vehicle.geometry import rotation_zyx
 
 __all__ = ["TruthCheck", "check_flight"]
@@ -53,6 +53,9 @@ class TruthCheck:
     estimate_error_rms_m: float
     estimate_error_max_m: float
     rows: int
+    #: ``docking.criterion: capture``: the truth's contact with the dock's body at the verdict (free,
+    #: captured, collided; "collided before" when it collided earlier in the flight); "" for the point rule.
+    truth_contact_at_verdict: str = ""
 
     def to_dict(self) -> dict[str, Any]:
         """Every figure by name."""
@@ -62,11 +65,20 @@ class TruthCheck:
         """The report, a line per figure."""
         said = "docked" if self.flight_docked else f"not docked ({self.flight_reason})"
         right = "right" if self.verdict_right else "WRONG"
+        if self.truth_contact_at_verdict:
+            then = (
+                f"truth then: {self.truth_contact_at_verdict} (the dock's body), "
+                f"{self.truth_distance_at_verdict_m:.3f} m from the docking point"
+            )
+        else:
+            then = (
+                f"truth then: {self.truth_distance_at_verdict_m:.3f} m from the docking point (tolerance "
+                f"{self.tolerance_m:.3f} m)"
+            )
         out = [
             f"fly's verdict: {said}, at vehicle time {self.verdict_time_s:.2f} s",
-            f"truth then: {self.truth_distance_at_verdict_m:.3f} m from the docking point (tolerance "
-            f"{self.tolerance_m:.3f} m), {self.truth_relative_speed_at_verdict_m_s:.3f} m/s relative to the "
-            f"dock: the verdict is {right}",
+            f"{then}, {self.truth_relative_speed_at_verdict_m_s:.3f} m/s relative to the dock: "
+            f"the verdict is {right}",
             f"truth's closest approach during the flight: {self.truth_closest_m:.3f} m",
             f"telemetry (what fly judged on) against the truth: {self.telemetry_error_rms_m:.3f} m RMS, "
             f"{self.telemetry_error_max_m:.3f} m at most, over {self.rows} rows",
@@ -156,6 +168,11 @@ def check_flight(flight: str | Path, truth: str | Path) -> TruthCheck:
     speed = float(np.linalg.norm(v_ned - _at(tr.time_s, armed, tr.dock_velocity_m_s, at)[0]))
     d_end = float(_at(tr.time_s, armed, tr.distance_m, at)[0])
     right = (d_end <= tol) if docked else not (d_end <= tol)
+    contact_said = ""
+    status = tr.extras.get("contact_status")
+    if status is not None:  # docking.criterion: capture -- the truth's contact, judged as sim judges it
+        status = np.asarray(status, dtype=float)
+        contact_said, right = _capture_right(tr, status, t_verdict, float(t[-1]), docked)
     return TruthCheck(
         flight_reason=str(out.get("reason", "")),
         flight_docked=docked,
@@ -169,5 +186,25 @@ def check_flight(flight: str | Path, truth: str | Path) -> TruthCheck:
         telemetry_error_max_m=float(np.max(tel_err)),
         estimate_error_rms_m=float(np.sqrt(np.mean(est_err**2))) if est_err.size else math.nan,
         estimate_error_max_m=float(np.max(est_err)) if est_err.size else math.nan,
+        truth_contact_at_verdict=contact_said,
         rows=int(t.size),
     )
+
+
+def _capture_right(
+    tr: RunResults, status: np.ndarray, t_verdict: float, t_last: float, docked: bool
+) -> tuple[str, bool]:
+    """(the truth's contact at the verdict, whether the verdict is right) for a capture mission: docked is
+    right when the truth is captured at the verdict's truth row (the nearest) and did not collide before;
+    not docked is right when the truth was never captured during the flight."""
+    out = tr.outcome()
+    first_collided = float(out.get("first_collided_armed_t_s", math.nan))
+    first_captured = float(out.get("first_captured_armed_t_s", math.nan))
+    i = int(np.argmin(np.abs(tr.time_s - t_verdict)))
+    then = CONTACT_STATUSES[int(status[i])] if np.isfinite(status[i]) else "free"
+    if math.isfinite(first_collided) and first_collided < t_verdict - 1e-9 and then != "collided":
+        then = f"{then}, collided before (t = {first_collided:.2f} s)"
+        return then, False
+    if docked:
+        return then, then == "captured"
+    return then, not (math.isfinite(first_captured) and first_captured <= t_last + 1e-9)

@@ -11,6 +11,9 @@ RAW_IMU             xacc, yacc, zacc (int16)       raw; ArduPilot sends mG as SC
 SCALED_IMU2         xgyro, ygyro, zgyro (int16)    mrad/s
 SCALED_PRESSURE2    press_abs (float)              hPa
 VFR_HUD             alt (float)                    m, up (ArduSub: minus the depth)
+SIM_STATE           lat, lon (float), alt (float)  deg, deg, m up: a simulator's true position,
+                                                   the mission's frame at latitude 0, longitude 0
+                                                   (:func:`sim_latlon`, :func:`sim_position_ned`)
 ==================  ============================  ==========================================
 
 Depth from pressure: ``(p - p_surface) 100 / (rho g)`` with sea water's density; ArduSub's
@@ -26,6 +29,9 @@ import math
 from auvdock.sensing.measurements import GRAVITY
 
 __all__ = [
+    "SIM_EARTH_RADIUS_M",
+    "sim_latlon",
+    "sim_position_ned",
     "GRAVITY",
     "MG_M_S2",
     "MRAD_S",
@@ -62,3 +68,22 @@ def depth_from_pressure(
     default under the standard atmosphere in sea water (ArduSub: the surface pressure is
     ``BAROn_GND_PRESS``, Pa, and rho = 1000 ``BARO_SPEC_GRAV``)."""
     return (float(press_abs_hpa) - float(surface_hpa)) * 100.0 / (float(density_kg_m3) * GRAVITY)
+
+
+#: The sphere on which a simulator's SIM_STATE places the mission's frame (WGS-84's equatorial radius), m.
+SIM_EARTH_RADIUS_M = 6378137.0
+
+
+def sim_latlon(north_m: float, east_m: float, down_m: float) -> tuple[float, float, float]:
+    """SIM_STATE's (lat deg, lon deg, alt m) of a position in the mission's frame (NED, m), the frame's
+    origin at latitude 0, longitude 0 (``lat = north / R``, ``lon = east / R``, ``alt = -down``; float
+    degrees near 0 keep 1e-9 m)."""
+    r = SIM_EARTH_RADIUS_M
+    return math.degrees(north_m / r), math.degrees(east_m / r), -down_m
+
+
+def sim_position_ned(lat_deg: float, lon_deg: float, alt_m: float) -> tuple[float, float, float]:
+    """The position in the mission's frame (NED, m) of SIM_STATE's lat, lon (deg) and alt (m): the
+    inverse of :func:`sim_latlon`."""
+    r = SIM_EARTH_RADIUS_M
+    return math.radians(lat_deg) * r, math.radians(lon_deg) * r, -alt_m

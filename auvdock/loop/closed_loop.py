@@ -55,7 +55,7 @@ if TYPE_CHECKING:
     from auvdock.controllers.base import ControlOutput
     from auvdock.controllers.hold import DepthAttitudeHold
     from auvdock.loop.guidance import LostTrack
-    from auvdock.loop.verdict import MarginVerdict, Verdict
+    from auvdock.loop.verdict import CaptureVerdict, MarginVerdict, Verdict
     from auvdock.vehicle import Vehicle
     from auvdock.world.dock_body import Contact
 
@@ -509,7 +509,7 @@ def run_closed_loop(
     on_event: Callable[[str], None] | None = None,
     step_guard: Callable[[], contextlib.AbstractContextManager[Any]] = _whole,
     control_guard: Callable[[], contextlib.AbstractContextManager[Any]] = contextlib.nullcontext,
-    verdict: MarginVerdict | None = None,
+    verdict: MarginVerdict | CaptureVerdict | None = None,
 ) -> LoopResult:
     """Run one closed loop to its ending (see the module docstring).
 
@@ -542,10 +542,10 @@ def run_closed_loop(
         Context for one whole step (default: Ctrl-C held back to the step's end).
     control_guard : callable
         Context for the autopilot's step alone (fly: what CasADi prints is counted, not shown).
-    verdict : MarginVerdict, optional
-        A vehicle's docking rule: docked when the 95 % bound of the newest estimate's distance from
-        the dock is within ``tolerance_m`` (the autopilot's ``last_estimate``); None: ``obs.state``
-        within ``tolerance_m`` (the truth, in simulation).
+    verdict : MarginVerdict or CaptureVerdict, optional
+        A vehicle's docking rule on its newest estimate (the autopilot's ``last_estimate``): the 95 %
+        bound of its distance from the dock within ``tolerance_m``, or (``docking.criterion: capture``)
+        captured with a 95 % margin; None: ``obs.state`` within ``tolerance_m`` (the truth, in simulation).
 
     Returns
     -------

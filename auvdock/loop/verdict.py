@@ -41,7 +41,7 @@ import math
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -52,7 +52,7 @@ if TYPE_CHECKING:
     from auvdock.estimation.estimate import Estimate
     from auvdock.loop.closed_loop import DockModel
 
-__all__ = ["BOUND_95_3D", "Verdict", "MarginVerdict", "bound_95"]
+__all__ = ["BOUND_95_3D", "Verdict", "MarginVerdict", "CaptureVerdict", "bound_95"]
 
 #: Distinct position readings averaged by the telemetry basis (0.2 s of a 25 Hz stream).
 TELEMETRY_MEAN = 5
@@ -94,14 +94,25 @@ class Verdict:
     distance_m: float
     bound_m: float
     tolerance_m: float
+    #: ``docking.criterion: capture``: whether the estimate, moved back out of the cradle by its 95 %
+    #: radius, is still captured (:class:`CaptureVerdict`); None: the point rule.
+    captured: bool | None = None
 
     @property
     def docked(self) -> bool:
-        """The 95 % bound is inside the tolerance."""
+        """The 95 % bound is inside the tolerance (the capture rule: the estimate is captured with margin)."""
+        if self.captured is not None:
+            return self.captured
         return self.bound_m <= self.tolerance_m
 
     def describe(self) -> str:
         """One line: ``"on the estimate: 0.021 m from the dock, 95 % bound 0.049 m <= 0.05 m"``."""
+        if self.captured is not None:
+            said = "captured" if self.captured else "not captured"
+            return (
+                f"on the {self.basis}: {said} with a 95 % margin of {self.bound_m - self.distance_m:.3f} m, "
+                f"{self.distance_m:.3f} m from the docking point"
+            )
         rel = "<=" if self.docked else ">"
         return (
             f"on the {self.basis}: {self.distance_m:.3f} m from the dock, 95 % bound "
@@ -199,3 +210,70 @@ class MarginVerdict:
             recent.popleft()
         carried = [r + v * (est.t - t) for t, r, v, _ in recent]
         return np.mean(carried, axis=0), len(carried)
+
+
+class CaptureVerdict:
+    """The capture rule of a flown vehicle (``docking.criterion: capture``): captured on what it knows.
+
+    The judge of ``sim`` is the truth's contact with the dock's body
+    (:func:`auvdock.world.dock_body.classify_contact`: the nose in the cradle, deep enough, aligned, slow
+    enough, no hull point in the solid).  A vehicle judges the same on its estimate (the vehicle's state
+    and the dock where its estimate places it, as :class:`MarginVerdict`), with a margin: the estimate
+    moved back out of the cradle, along the dock's axis, by the 95 % radius of the relative position
+    (``BOUND_95_3D sqrt(lambda_max(P))``) must still be captured.  The margin is along the axis only (the
+    radial and angular limits are judged on the estimate itself).  A :class:`Verdict` with ``captured``
+    set; ``bound_m - distance_m`` is the margin.
+
+    Parameters
+    ----------
+    margin : MarginVerdict
+        The point rule, for the relative position, its covariance and basis (its tolerance unused).
+    contact : (DockBody, HullBox, CaptureLimits)
+        The dock's body, the vehicle's hull and the capture limits
+        (:meth:`auvdock.config.mission.Mission.build_contact`).
+    """
+
+    def __init__(self, margin: MarginVerdict, contact: tuple[Any, Any, Any]) -> None:
+        self.margin = margin
+        self.body, self.hull, self.limits = contact
+        self.closest: Verdict | None = None
+
+    @property
+    def tolerance_m(self) -> float:
+        return self.margin.tolerance_m
+
+    def reset(self) -> None:
+        self.closest = None
+        self.margin.reset()
+
+    def judge(self, estimate: Estimate | None) -> Verdict | None:
+        """The capture verdict on the newest estimate (None before one)."""
+        from auvdock.world.dock_body import classify_contact
+
+        point = self.margin.judge(estimate)
+        if point is None or estimate is None:
+            return None
+        dock = self.margin.dock
+        p_dock = np.asarray(dock.position(estimate.t), dtype=float)
+        if estimate.dock_offset_ned is not None:
+            p_dock = p_dock + estimate.dock_offset_ned
+        r95 = point.bound_m - point.distance_m
+        h = float(dock.heading_rad)
+        axis = np.array([math.cos(h), math.sin(h), 0.0])  # the cradle's axis x_d, into the dock
+        x = np.asarray(estimate.state, dtype=float).copy()
+        x[POS] = x[POS] - r95 * axis  # moved back out of the cradle by the 95 % radius
+        contact = classify_contact(
+            x, p_dock, dock.velocity(estimate.t), self.body, self.hull, self.limits, dock_heading_rad=h
+        )
+        verdict = Verdict(
+            point.t,
+            point.basis,
+            point.distance_m,
+            point.bound_m,
+            point.tolerance_m,
+            captured=contact.status == "captured",
+        )
+        best = self.closest
+        if best is None or (not best.captured and (verdict.captured or verdict.bound_m < best.bound_m)):
+            self.closest = verdict  # the first captured judgement, else the nearest
+        return verdict

@@ -57,6 +57,14 @@ Messages
   ``MAV_RESULT_ACCEPTED``; a message id not in :data:`STREAMS` or another negative interval
   -> ``MAV_RESULT_DENIED``.  Messages go out at most once per physics step, so the fastest
   rate is the physics rate.
+* ``SIM_STATE`` (:func:`sim_state`), a stream like the others (ArduPilot's SITL sends it too): the
+  simulator's **true** pose and velocity, for a rehearsal's synthetic camera
+  (:mod:`auvdock.fly.camera_sensor`) -- roll, pitch, yaw (rad) and q1..q4 (w, x, y, z) of {b} in NED;
+  lat, lon (deg) and alt (m) of the true position with the mission's frame placed at latitude 0,
+  longitude 0 on a sphere (``lat = north / R``, ``lon = east /
+  R``, ``alt = -down``: :func:`auvdock.fly.units.sim_latlon`); lat_int, lon_int the same in degE7; vn, ve,
+  vd the velocity over ground (m/s); the body rates (rad/s) and the IMU's specific force (m/s^2) of
+  the last step, no errors.  A real vehicle sends no SIM_STATE.
 * ``LANDING_TARGET`` (:func:`landing_target`), when the vehicle acts as a positioning system:
   the dock's position relative to the vehicle in body axes (x, y, z in m, frame
   ``MAV_FRAME_BODY_FRD``), distance its norm (m), angles and sizes 0, q identity, type
@@ -86,7 +94,7 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
-from auvdock.fly.units import MG_M_S2, MRAD_S, pressure_hpa
+from auvdock.fly.units import MG_M_S2, MRAD_S, pressure_hpa, sim_latlon
 from auvdock.sensing.errors import SensorErrors, draw_bias
 from auvdock.vehicle.ardusub import PWM_PER_UNIT, mix, motor_pwm
 from auvdock.vehicle.geometry import wrap_angle
@@ -120,6 +128,7 @@ __all__ = [
     "imu",
     "servo_output_raw",
     "landing_target",
+    "sim_state",
 ]
 
 M = mavlink2
@@ -147,8 +156,10 @@ STREAMS.update(
         "HEARTBEAT": M.MAVLINK_MSG_ID_HEARTBEAT,
         "SYS_STATUS": M.MAVLINK_MSG_ID_SYS_STATUS,
         "RC_CHANNELS": M.MAVLINK_MSG_ID_RC_CHANNELS,
+        "SIM_STATE": M.MAVLINK_MSG_ID_SIM_STATE,
     }
 )
+
 #: Message id -> name of :data:`STREAMS`.
 STREAM_NAMES: dict[int, str] = {v: k for k, v in STREAMS.items()}
 #: SYS_STATUS's sensor bit for "pre-arm checks pass" (MAV_SYS_STATUS_PREARM_CHECK).
@@ -429,3 +440,38 @@ def landing_target(t: float, x: np.ndarray, target_ned: np.ndarray) -> mavlink2.
         M.LANDING_TARGET_TYPE_VISION_FIDUCIAL,
         1,
     )
+
+
+def sim_state(x: np.ndarray, f_b: np.ndarray) -> mavlink2.MAVLink_message:
+    """SIM_STATE of the true state ``x`` (12,) with the last step's specific force ``f_b`` (3,, m/s^2):
+    the simulator's truth, no sensor errors (see the module docstring for the frame)."""
+    roll, pitch, yaw = (float(v) for v in x[ATT])
+    cr, sr = math.cos(roll / 2), math.sin(roll / 2)
+    cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
+    cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
+    q = (
+        cr * cp * cy + sr * sp * sy,
+        sr * cp * cy - cr * sp * sy,
+        cr * sp * cy + sr * cp * sy,
+        cr * cp * sy - sr * sp * cy,
+    )
+    lat, lon, alt = sim_latlon(*(float(v) for v in x[POS]))
+    v = TruthPlant.rotation(x) @ x[LIN]
+    w = x[ANG]
+    return M.MAVLink_sim_state_message(
+        *q,
+        roll,
+        pitch,
+        wrap_angle(yaw),
+        *(float(a) for a in f_b),
+        *(float(a) for a in w),
+        lat,
+        lon,
+        alt,
+        0.0,
+        0.0,
+        *(float(a) for a in v),
+        int(round(lat * 1e7)),
+        int(round(lon * 1e7)),
+    )
+

@@ -13,7 +13,10 @@ vehicle's own clock (vehicle-sim's ``time_boot_ms``; sitl-physics' physics time,
 follows in lockstep), which a
 flight records with each row (``vehicle_time_s``), so a flight is scored on the truth at the
 instants it flew (:mod:`auvdock.fly.truth_check`).  The outcome, written when the simulator stops:
-the closest approach while armed (m, and when), and the arming events.
+the closest approach while armed (m, and when), and the arming events.  A mission judged by capture
+(``docking.criterion: capture``) has the truth's contact with the dock's body in every row
+(``contact_status``: :data:`CONTACT_STATUSES`; ``nose_dock_m``), and the outcome the first instants the
+truth was captured and collided while armed.
 """
 
 from __future__ import annotations
@@ -29,7 +32,11 @@ from auvdock.results.store import RunWriter
 if TYPE_CHECKING:
     from auvdock.config.mission import Mission
 
-__all__ = ["TRUTH_PERIOD_S", "TRUTH_SOURCE", "TruthRecord"]
+__all__ = ["TRUTH_PERIOD_S", "TRUTH_SOURCE", "CONTACT_STATUSES", "TruthRecord"]
+
+#: ``contact_status`` of a truth row (``docking.criterion: capture``): an index of this tuple
+#: (:func:`auvdock.world.dock_body.classify_contact`).
+CONTACT_STATUSES = ("free", "captured", "collided")
 
 #: The ``source`` attribute of every truth file (what :func:`auvdock.fly.truth_check.check_flight` reads).
 TRUTH_SOURCE = "vehicle-sim truth"
@@ -56,6 +63,8 @@ class TruthRecord:
         self._next_t = -math.inf
         self.closest_m = math.inf
         self.closest_t_s = math.nan
+        #: The first instant (s) the truth was captured, and collided, while armed (capture missions).
+        self.first_s = {"captured": math.nan, "collided": math.nan}
 
     @classmethod
     def for_stand_in(
@@ -98,6 +107,11 @@ class TruthRecord:
         d = float(row["distance_m"])
         if armed and d < self.closest_m:
             self.closest_m, self.closest_t_s = d, float(row["time_s"])
+        status = row.get("contact_status")
+        if armed and status is not None:  # every row counts here, kept or not
+            what = CONTACT_STATUSES[int(status)]
+            if what in self.first_s and math.isnan(self.first_s[what]):
+                self.first_s[what] = float(row["time_s"])
         t = float(row["time_s"])
         if t >= self._next_t - 1e-9:
             self.writer.append(**row)
@@ -113,6 +127,8 @@ class TruthRecord:
                 **outcome,
                 "closest_approach_armed_m": self.closest_m if math.isfinite(self.closest_m) else math.nan,
                 "closest_approach_armed_t_s": self.closest_t_s,
+                "first_captured_armed_t_s": self.first_s["captured"],
+                "first_collided_armed_t_s": self.first_s["collided"],
             }
         )
 

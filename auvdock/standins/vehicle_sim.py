@@ -65,8 +65,12 @@ Disarmed -> zero thrust.  Armed -> ``thrust_from_channels(channels)`` in **every
 (modes are accepted and reported but flown like MANUAL).
 :class:`auvdock.world.plant.TruthPlant` (the truth plant this simulator shares with
 :class:`auvdock.standins.sitl_physics.SitlPhysics`): ``Vehicle.stepper(1 / rate_hz,
-substeps, flow)`` (RK4, thrust held over the step) from the mission's start state, vehicle
-and flow field.  ``surface=True`` (default) adds a crude free surface the truth model lacks:
+substeps, flow)`` (RK4, thrust held over the step) from the mission's true start state, vehicle
+and flow field.  The truth is drawn for the mission's seed as ``sim`` draws it
+(:meth:`auvdock.config.mission.Mission.true_start_state`, ``build_dock(truth=True)``): the vehicle
+starts ``start.position_std_m`` and the dock lies ``dock.position_std_m`` away from where the
+mission charts them (nowhere else when they are zero).  ``surface=True`` (default) adds a crude
+free surface the truth model lacks:
 the depth z is floored at 0 m, and the upward velocity (and, in the accelerometer, the
 upward acceleration) is removed there, so that a buoyant vehicle left alone floats instead
 of flying out of the water.  The BlueROV2 Heavy of the shipped parameters is 2 N buoyant: it
@@ -132,10 +136,11 @@ from auvdock.standins.telemetry_out import (
     SensorNoise,
     StreamSchedule,
 )
-from auvdock.standins.truth_record import TruthRecord
+from auvdock.standins.truth_record import CONTACT_STATUSES, TruthRecord
 from auvdock.vehicle.actuators import ActuatorCommand, ArduSubActuators
 from auvdock.vehicle.ardusub import thrust_from_channels
 from auvdock.vehicle.state import POS
+from auvdock.world.dock_body import classify_contact
 from auvdock.world.plant import TruthPlant
 
 __all__ = [
@@ -247,11 +252,16 @@ class VehicleSim:
             self.vehicle = mission.build_vehicle()
             self.flow = mission.build_flow()
             self.sea = mission.build_sea()  # the waves act on the vehicle here as in sim
-            self._dock = mission.build_dock(self.sea)  # the true dock (recorded; no verdict here)
+            # the truth of this seed, as sim draws it: where the dock and the vehicle really are
+            # (dock.position_std_m, start.position_std_m; the mission's own places when zero)
+            self._dock = mission.build_dock(self.sea, truth=True)  # recorded, rendered; no verdict here
+            self._start = mission.true_start_state()
+            # docking.criterion: capture -- the truth's contact with the dock's body, recorded (not judged)
+            self._contact = mission.build_contact(self._dock)
             self._plant = TruthPlant(
                 self.vehicle,
                 self.flow,
-                mission.start_state(),
+                self._start,
                 substeps=n_sub,
                 surface=self.surface,
                 dt=self.dt,
@@ -354,6 +364,11 @@ class VehicleSim:
         """Truth state (12,): [x y z NED m, phi theta psi rad, u v w body m/s over ground, p q r rad/s]."""
         with self._lock:
             return self._plant.state
+
+    def pose(self) -> tuple[float, np.ndarray]:
+        """(simulated time s, true pose eta (6,)) now; safe from any thread (the ``--camera`` stream's)."""
+        with self._lock:
+            return self._k * self.dt, self._plant.state[0:6].copy()
 
     @property
     def t(self) -> float:
@@ -533,7 +548,7 @@ class VehicleSim:
                 vehicle=self.vehicle,
                 dock=self._dock,
                 extra_series={},
-                plant_columns=dict(_StandinPlant.columns),
+                plant_columns=_StandinPlant.columns_of(self),
                 channels=True,
                 keep=False,
             )
@@ -586,7 +601,7 @@ class VehicleSim:
         rest, while disarmed with ``hold_start``)."""
         t = self._k * self.dt
         if self.hold_start and not self._commands.armed:
-            self._plant.place(self.mission.start_state())
+            self._plant.place(self._start)
         else:
             self._plant.step(self._thrust, t)
         self._k += 1
@@ -720,6 +735,9 @@ class VehicleSim:
     def _send_vfr_hud(self) -> None:
         self._out.send(telemetry_out.vfr_hud(self._x, self._sensors))
 
+    def _send_sim_state(self) -> None:
+        self._out.send(telemetry_out.sim_state(self._x, self._plant.imu()[0]))
+
     def _send_imu(self, name: str, f_b: np.ndarray, w: np.ndarray) -> None:
         self._out.send(telemetry_out.imu(name, self._k * self.dt, f_b, w))
 
@@ -760,6 +778,17 @@ class _StandinPlant:
         self.sim = sim
         self._next_t = 0.0
         self._period = sim.dt / sim.speed
+        self.columns = self.columns_of(sim)
+
+    @staticmethod
+    def columns_of(sim: VehicleSim) -> dict[str, tuple[int, ...]]:
+        """``armed``; with ``docking.criterion: capture`` also the truth's contact with the dock's body:
+        ``contact_status`` (an index of :data:`auvdock.standins.truth_record.CONTACT_STATUSES`) and the
+        nose in the dock frame ``nose_dock_m`` (m)."""
+        out: dict[str, tuple[int, ...]] = {"armed": ()}
+        if sim._contact is not None:
+            out.update(contact_status=(), nose_dock_m=(3,))
+        return out
 
     def start(self) -> None:
         self._next_t = self.sim.clock.now()
@@ -772,9 +801,17 @@ class _StandinPlant:
         with sim._lock:
             sim._commands.check_failsafe(t)
             x = sim._plant.state
-            armed = {"armed": np.asarray(float(sim._commands.armed))}
+            columns = {"armed": np.asarray(float(sim._commands.armed))}
+        if sim._contact is not None:  # recorded only: the flight it serves judges, the truth-check scores
+            body, hull, limits = sim._contact
+            touch = classify_contact(
+                x, sim._dock.position(t), sim._dock.velocity(t), body, hull, limits,
+                dock_heading_rad=sim._dock.heading_rad,
+            )  # fmt: skip
+            columns["contact_status"] = np.asarray(float(CONTACT_STATUSES.index(touch.status)))
+            columns["nose_dock_m"] = touch.nose_dock_m
         v_c = np.asarray(sim.flow.velocity(x[POS], t), dtype=float)
-        return Observation(t, x, v_c, Readings(t), columns=armed)
+        return Observation(t, x, v_c, Readings(t), columns=columns)
 
     def apply(self, t: float, command: ActuatorCommand) -> Applied:
         sim = self.sim
