@@ -149,14 +149,14 @@ def test_vehicle_sim_without_events_says_no_events(loop, monkeypatch) -> None:
     """E: stopped before anyone armed it: "no events", not an empty "events: "."""
     run_forever = vehicle_sim_module.VehicleSim.run_forever
 
-    def briefly(self) -> None:  # as Ctrl-C after 0.3 s of the vehicle's time
+    def briefly(self, then=None) -> bool:  # stopped from elsewhere after 0.3 s (not a signal: exit 0)
         def stop() -> None:
             self.clock.sleep(0.3)
             self.stop()
 
         self.start()
         self.clock.start_thread(stop, "stopper")
-        run_forever(self)
+        return run_forever(self, then)
 
     monkeypatch.setattr(vehicle_sim_module.VehicleSim, "run_forever", briefly)
     res = loop.runner.invoke(app, ["vehicle-sim", "--port", f"udpout:{HOST}:{free_port()}"])
@@ -239,11 +239,18 @@ def test_truth_check_on_a_sim_results_file_says_what_it_is(tmp_path) -> None:
     )
 
 
-def test_vehicle_sim_stopped_by_ctrl_c_completes_its_truth_file(tmp_path) -> None:
-    """Ctrl-C (SIGINT) to a vehicle-sim process writing --truth-out: the file is complete when it has said
-    "stopped" (on Python 3.11 a Ctrl-C that interrupted the wait for the simulator thread left the thread
-    marked as ended while it still wrote, and the process exited in the middle: complete = False).  A real
-    process on the wall clock and loopback, as Ctrl-C comes from outside (tests/test_fly_sigint.py)."""
+@pytest.mark.parametrize(
+    ("signame", "after_banner_s"),
+    [("SIGINT", 1.0), ("SIGTERM", 0.0), ("SIGTERM", 1.0), ("SIGTERM", None)],
+    ids=["ctrl-c-1s", "sigterm-at-banner", "sigterm-1s", "sigterm-while-loading"],
+)
+def test_vehicle_sim_stopped_by_a_signal_completes_its_truth_file(tmp_path, signame, after_banner_s) -> None:
+    """Ctrl-C (SIGINT) or SIGTERM to a vehicle-sim process writing --truth-out, at the banner, a second after
+    it, or while it loads (``None``): it ends (exit 130, one line: what stopped it, and the truth file only
+    when it is there), and the file is complete when named (on Python 3.11 a Ctrl-C that interrupted the
+    wait for the simulator thread left the thread marked as ended while it still wrote, and the process
+    exited in the middle: complete = False; a signal while stopping is now noted, not obeyed).  A real
+    process on the wall clock and loopback, as signals come from outside (tests/test_fly_sigint.py)."""
     import signal
     import time
 
@@ -257,18 +264,38 @@ def test_vehicle_sim_stopped_by_ctrl_c_completes_its_truth_file(tmp_path) -> Non
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
     try:
         seen = ""
-        while "Ctrl-C to stop" not in seen:  # the banner: the simulator runs
-            line = proc.stdout.readline() if proc.stdout is not None else ""
-            assert line, seen
-            seen += line
-        time.sleep(1.0)
-        proc.send_signal(signal.SIGINT)
+        if after_banner_s is None:
+            time.sleep(0.3)  # python is starting, auvdock importing
+        else:
+            while "Ctrl-C to stop" not in seen:  # the banner: the simulator runs
+                line = proc.stdout.readline() if proc.stdout is not None else ""
+                assert line, seen
+                seen += line
+            time.sleep(after_banner_s)
+        proc.send_signal(getattr(signal, signame))
         out, _ = proc.communicate(timeout=60)
     finally:
         if proc.poll() is None:
             proc.kill()
             proc.communicate()
-    assert proc.returncode == 0, out
-    assert "stopped at t = " in out and "Traceback" not in out, out
-    r = read_run(truth)
-    assert r.attrs["complete"] and r.outcome()["reason"] == "stopped"
+    out = seen + out
+    if after_banner_s is None and proc.returncode == -signal.SIGTERM:  # before Python ran auvdock's code
+        assert not truth.exists()
+        return
+    assert proc.returncode == 130, out
+    assert "Traceback" not in out, out
+    last = out.strip().splitlines()[-1]
+    assert last.startswith("interrupted"), out
+    if "truth in" in last:  # named: there, and complete
+        assert last.endswith(f"truth in {truth}")
+        r = read_run(truth)
+        assert r.attrs["complete"] and r.outcome()["reason"] == "stopped"
+    name = "Ctrl-C" if signame == "SIGINT" else "SIGTERM"
+    stopped, before = f"interrupted ({name}): stopped at t = ", f"interrupted ({name}): before"
+    if after_banner_s is None:  # nothing started
+        said = f"interrupted ({name}): before the simulator started; nothing written"
+        assert last in ("interrupted (SIGTERM)", said) and not truth.exists(), out
+    elif after_banner_s == 0.0:  # the simulator may not have started
+        assert last.startswith((stopped, before)), out
+    else:
+        assert last.startswith(stopped), out

@@ -40,7 +40,7 @@ except ImportError:  # pragma: no cover
     from click import exceptions as _cx  # type: ignore[no-redef]  # noqa: E402
 
 from auvdock.cli.app import app, err_console, interrupt_reported  # noqa: E402
-from auvdock.runtime.interrupts import sigterm_interrupts  # noqa: E402
+from auvdock.runtime.interrupts import interrupt_name, sigterm_interrupts  # noqa: E402
 
 __all__ = ["app", "main"]
 
@@ -70,7 +70,8 @@ def main(argv: list[str] | None = None) -> None:
     except (typer.Abort, KeyboardInterrupt):
         rc = 130
     if rc == 130 and not interrupt_reported():  # Typer turns Ctrl-C into exit 130, silently
-        err_console.print("interrupted", markup=False, highlight=False)
+        said = "interrupted" if interrupt_name() == "Ctrl-C" else f"interrupted ({interrupt_name()})"
+        err_console.print(said, markup=False, highlight=False)
     _ignore_late_sigint()
     sys.exit(rc if isinstance(rc, int) else 0)
 

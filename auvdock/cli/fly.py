@@ -269,15 +269,19 @@ def vehicle_sim(
     )
     stream = None
     try:
-        sim = VehicleSim(
-            m, port=port, speed=speed, clock=clock, noise=noise, hold_start=hold, truth_out=truth_out
-        )
-        if target is not None:
-            stream = _truth_camera(m, sim, target, camera)
-            console.print(f"camera: {stream.description}", markup=False, highlight=False, soft_wrap=True)
-            sim.start()
-            stream.start()
-        sim.run_forever()
+        try:
+            sim = VehicleSim(
+                m, port=port, speed=speed, clock=clock, noise=noise, hold_start=hold, truth_out=truth_out
+            )
+            if target is not None:
+                stream = _truth_camera(m, sim, target, camera)
+                said = f"camera: {stream.description}"
+                console.print(said, markup=False, highlight=False, soft_wrap=True)
+        except KeyboardInterrupt:  # before the simulator started: its truth file is not yet created
+            said = "before the simulator started; nothing written"
+            exit_interrupted(f"interrupted ({interrupt_name()}): {said}")
+            raise AssertionError("unreachable") from None
+        interrupted = sim.run_forever(then=None if stream is None else stream.start)
     except (OSError, ValueError) as e:
         fail_input(f"--port {port}: {e}")
     finally:
@@ -285,9 +289,10 @@ def vehicle_sim(
             stream.stop()
     truth = f"; truth in {truth_out}" if truth_out is not None and truth_out.is_file() else ""
     events = "events: " + ", ".join(e.kind for e in sim.events) if sim.events else "no events"
-    console.print(
-        f"stopped at t = {sim.t:.1f} s; {events}{truth}", markup=False, highlight=False, soft_wrap=True
-    )
+    said = f"stopped at t = {sim.t:.1f} s; {events}{truth}"
+    if interrupted:  # Ctrl-C or SIGTERM: how a stand-in is stopped, said as every command says it
+        exit_interrupted(f"interrupted ({interrupt_name()}): {said}")
+    console.print(said, markup=False, highlight=False, soft_wrap=True)
 
 
 def _truth_camera(

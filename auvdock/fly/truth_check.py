@@ -172,7 +172,7 @@ def check_flight(flight: str | Path, truth: str | Path) -> TruthCheck:
     status = tr.extras.get("contact_status")
     if status is not None:  # docking.criterion: capture -- the truth's contact, judged as sim judges it
         status = np.asarray(status, dtype=float)
-        contact_said, right = _capture_right(tr, status, t_verdict, float(t[-1]), docked)
+        contact_said, right = _capture_right(tr, status, t_verdict, float(t[0]), float(t[-1]), docked)
     return TruthCheck(
         flight_reason=str(out.get("reason", "")),
         flight_docked=docked,
@@ -192,19 +192,21 @@ def check_flight(flight: str | Path, truth: str | Path) -> TruthCheck:
 
 
 def _capture_right(
-    tr: RunResults, status: np.ndarray, t_verdict: float, t_last: float, docked: bool
+    tr: RunResults, status: np.ndarray, t_verdict: float, t_first: float, t_last: float, docked: bool
 ) -> tuple[str, bool]:
-    """(the truth's contact at the verdict, whether the verdict is right) for a capture mission: docked is
-    right when the truth is captured at the verdict's truth row (the nearest) and did not collide before;
+    """(the truth's contact at the verdict, whether the verdict is right) for a capture mission, on the
+    truth's rows of the flight (vehicle times ``t_first`` to ``t_last``, s; a row every 0.05 s): docked is
+    right when the truth is captured at the verdict's row (the nearest) and did not collide before it;
     not docked is right when the truth was never captured during the flight."""
-    out = tr.outcome()
-    first_collided = float(out.get("first_collided_armed_t_s", math.nan))
-    first_captured = float(out.get("first_captured_armed_t_s", math.nan))
-    i = int(np.argmin(np.abs(tr.time_s - t_verdict)))
-    then = CONTACT_STATUSES[int(status[i])] if np.isfinite(status[i]) else "free"
-    if math.isfinite(first_collided) and first_collided < t_verdict - 1e-9 and then != "collided":
-        then = f"{then}, collided before (t = {first_collided:.2f} s)"
-        return then, False
+    t = tr.time_s
+    armed = np.asarray(tr.extras["armed"], dtype=float) > 0.5
+    during = (t >= t_first - 1e-9) & (t <= t_last + 1e-9) & armed & np.isfinite(status)
+    names = np.array(CONTACT_STATUSES)[np.where(np.isfinite(status), status, 0).astype(int)]
+    i = int(np.argmin(np.abs(t - t_verdict)))
+    then = str(names[i])
+    collided = during & (names == "collided") & (t < t[i] - 1e-9)
+    if np.any(collided) and then != "collided":
+        return f"{then}, collided before (t = {float(t[collided][0]):.2f} s)", False
     if docked:
         return then, then == "captured"
-    return then, not (math.isfinite(first_captured) and first_captured <= t_last + 1e-9)
+    return then, not bool(np.any(during & (names == "captured")))

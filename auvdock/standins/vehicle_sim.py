@@ -99,6 +99,7 @@ import math
 import select
 import threading
 from collections import deque
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -159,6 +160,8 @@ __all__ = [
 M = mavlink2
 
 MAX_LAG_S = 0.25  # lag behind the clock after which simulated time slips instead of catching up
+#: How long :meth:`VehicleSim.stop` waits for the simulator's thread to end (its truth file closed), s.
+STOP_TIMEOUT_S = 30.0
 
 
 class VehicleSim:
@@ -497,10 +500,11 @@ class VehicleSim:
         return self
 
     def stop(self) -> None:
-        """Stop the simulator thread, wait for it and close the connection (idempotent)."""
+        """Stop the simulator thread, wait for it (its truth file written and closed: at most
+        :data:`STOP_TIMEOUT_S`) and close the connection (idempotent)."""
         self._stop_event.set()
         if self._thread is not None and self._thread is not threading.current_thread():
-            self.clock.join(self._thread, timeout=5.0)
+            self.clock.join(self._thread, timeout=STOP_TIMEOUT_S)
         if self._conn is not None:
             try:
                 self._conn.close()
@@ -509,25 +513,37 @@ class VehicleSim:
             self._conn = None
             self._out.conn = None
 
-    def run_forever(self) -> None:
-        """Run (starting if needed) until Ctrl-C, then stop and return; prints nothing.
+    def run_forever(self, then: Callable[[], object] | None = None) -> bool:
+        """Run (starting if needed, then calling ``then``: e.g. a camera stream's start) until Ctrl-C (or
+        :meth:`stop` from elsewhere), then stop and return whether a Ctrl-C ended it; prints nothing.
 
         Re-raises an error that stopped the simulator thread.
         """
-        if not self._started:
-            self.start()
+        interrupted = False
         try:
+            if not self._started:
+                self.start()
+            if then is not None:
+                then()
             # waits on an event, not on a join: on Python 3.11 a join that Ctrl-C interrupts leaves the
             # thread marked as ended while it still runs, so that stop() would not wait for its ending
             # (the truth file's) and the process would exit in the middle of it
             while self._thread is not None and self._thread.is_alive() and not self._ended.wait(0.2):
                 pass
         except KeyboardInterrupt:
-            pass
-        finally:
-            self.stop()
+            interrupted = True
+        # stopped whole: a second Ctrl-C (or SIGTERM) while stopping is noted, not obeyed, so that the
+        # process never exits with the simulator's thread in the middle of the truth file (a daemon thread
+        # inside HDF5 at the interpreter's exit can leave it waiting forever on HDF5's lock)
+        while True:
+            try:
+                self.stop()
+                break
+            except KeyboardInterrupt:
+                interrupted = True
         if self._error is not None:
             raise self._error
+        return interrupted
 
     def __enter__(self) -> VehicleSim:
         return self.start()
