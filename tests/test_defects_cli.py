@@ -224,21 +224,19 @@ def test_sweep_started_with_sigint_ignored_stops_on_sigint(tmp_path) -> None:
     assert not any(_alive(pid) for pid in workers)
 
 
-def test_fly_refuses_the_dock_telemetry_before_connecting(capsys, tmp_path) -> None:
-    """basin_regular forecasts the dock's motion from its telemetry (sensors.dock_telemetry), which fly does
-    not receive yet: it refuses before connecting: exit 2, one line naming the field and what is missing,
-    nothing written (the output in tmp_path, not the mission's runs/ in the clone).  (It was tank_0p6hz's
-    dock camera, which fly now flies.)"""
-    code, err = _main(["fly", "basin_regular", "--port", "udpin:127.0.0.1:9", "--out", str(tmp_path)], capsys)
+def test_fly_refuses_a_wec_dock_before_connecting(capsys, tmp_path) -> None:
+    """pacwave_common_10m docks to a WEC buoy in a sea, which fly does not fly yet: it refuses before
+    connecting: exit 2, one line naming the field and what is missing, nothing written (the output in
+    tmp_path, not the mission's runs/ in the clone).  (It was tank_0p6hz's dock camera, then basin_regular's
+    dock telemetry, which fly now flies.)"""
+    args = ["fly", "pacwave_common_10m", "--port", "udpin:127.0.0.1:9", "--out", str(tmp_path)]
+    code, err = _main(args, capsys)
     assert code == 2, err
     lines = err.strip().splitlines()
-    assert (
-        len(lines) == 1
-        and lines[0].startswith("error: ")
-        and "basin_regular.yaml: sensors.dock_telemetry: " in lines[0]
-    )
+    assert len(lines) == 1 and lines[0].startswith("error: ")
+    assert "pacwave_common_10m.yaml: dock.wec: " in lines[0]
     assert lines[0].endswith(
-        "fly does not yet receive the dock's telemetry over MAVLink (sim only); fly takes the dock's motion "
-        "from its model (dock.heave) or a tracked dock (dock.source)"
+        "fly does not yet fly a WEC dock in a sea (sim only: a vehicle would need the dock's telemetry); "
+        "fly needs the dock's motion model (dock.heave)"
     )
     assert list(tmp_path.iterdir()) == []

@@ -93,19 +93,18 @@ def test_a_tlog_not_written_by_fly_is_still_called_so(tmp_path) -> None:
 
 # ------------------------------------------------------------------- issue 37: what a new user trips over
 def test_a_mission_fly_refuses_is_refused_before_the_banner_and_writes_nothing(loop, tmp_path) -> None:
-    """A: basin_regular (the dock's telemetry, which fly does not receive yet) with --arm: one line naming
+    """A: pacwave_common_10m (a WEC dock in a sea, which fly does not fly yet) with --arm: one line naming
     what is missing on a vehicle, exit 2, nothing said to be armed, no link opened: no tlog, no results.  (It
     was tank_0p6hz, the dock camera, which fly now flies: tests/test_fly_camera_sensor.py.)"""
-    mission = ROOT / "missions" / "basin_regular.yaml"
+    mission = ROOT / "missions" / "pacwave_common_10m.yaml"
     res = loop.runner.invoke(
         app, ["fly", str(mission), "--port", f"udpin:{HOST}:{free_port()}", "--arm", "--out", str(tmp_path)]
     )
     assert res.exit_code == 2, res.output
     assert res.stdout == ""
     assert res.stderr == (
-        f"error: {mission}: sensors.dock_telemetry: fly does not yet receive the dock's telemetry over "
-        "MAVLink (sim only); fly takes the dock's motion from its model (dock.heave) or a tracked dock "
-        "(dock.source)\n"
+        f"error: {mission}: dock.wec: fly does not yet fly a WEC dock in a sea (sim only: a vehicle would "
+        "need the dock's telemetry); fly needs the dock's motion model (dock.heave)\n"
     )
     assert "ARMED" not in res.output
     assert list(tmp_path.iterdir()) == []

@@ -57,12 +57,15 @@ PILOT_INPUT_TYPES = ("MANUAL_CONTROL", "RC_CHANNELS_OVERRIDE")
 
 def for_session(msg: Any, vehicle_system: int, own_system: int) -> bool:
     """Whether a received message goes to the session (:meth:`MavlinkLink.drain`): the
-    vehicle's own messages, LANDING_TARGET from anyone (a positioning system on the link),
+    vehicle's own messages, LANDING_TARGET from anyone (a positioning system on the link), ODOMETRY
+    from any other system (a dock's motion unit: :mod:`auvdock.fly.dock_telemetry`),
     and pilot input (MANUAL_CONTROL, RC_CHANNELS_OVERRIDE) from any system but ours (another
     ground station taking over).  One rule for the link and for a replay of its tlog."""
     mtype = msg.get_type()
     src = msg.get_srcSystem()
     if src == vehicle_system or mtype == "LANDING_TARGET":
+        return True
+    if mtype == "ODOMETRY" and src != own_system:  # a dock's motion unit, its own system (fly.dock_telemetry)
         return True
     return mtype in PILOT_INPUT_TYPES and src != own_system
 

@@ -37,6 +37,7 @@ TELEMETRY_COLUMNS: dict[str, tuple[int, ...]] = {
     "vehicle_time_s": (),
     "link_round_trip_s": (),
     "link_loss": (),
+    "loop_late_s": (),
 }
 
 
@@ -50,6 +51,7 @@ class MavlinkPlant:
         self._t = 0.0
         self._armed = False
         self._clock_set = False
+        self._late = 0.0
 
     def start(self) -> None:
         """The loop's t = 0 is now on the session's clock (and, at the first observation, on the vehicle's:
@@ -61,6 +63,9 @@ class MavlinkPlant:
         """Drain the telemetry, check it, and report the vehicle at mission time ``t`` (s)."""
         s = self.session
         self._t = t
+        # how late this step starts on the session's clock (the machine not keeping pace: a slow step
+        # before it, a busy CPU), s; 0 in simulated time
+        self._late = max(0.0, s.clock.now() - (self._t_start + t))
         s._now_us = s._take_telemetry("auvd_step", int(round(t / s.dt)))
         if not self._clock_set:
             s._set_dock_clock(t)
@@ -100,6 +105,10 @@ class MavlinkPlant:
             camera_series.update(sensor_series)
         else:
             fixes = []
+        if s.dock_telemetry is not None:  # the dock's motion record: dock_motion readings (lost: abort)
+            motion, age = s._dock_motion()
+            fixes = fixes + motion
+            camera_series["dock_telemetry_age_s"] = np.asarray(age)
         if steer:  # the readings are taken (marked read) only when the estimation stage runs
             suite = s.telemetry.readings(t, s._now_us, offset) + fixes
             readings = Readings(t, suite, x.copy(), None, v_c, state_t=state_t)
@@ -114,6 +123,7 @@ class MavlinkPlant:
             "vehicle_time_s": np.asarray(s.telemetry.vehicle_time_s()),
             "link_round_trip_s": np.asarray(link.rtt_s),
             "link_loss": np.asarray(link.loss),
+            "loop_late_s": np.asarray(self._late),
             **camera_series,
         }
         return Observation(t, x, v_c, readings, steer, None, columns)

@@ -80,6 +80,7 @@ from auvdock.fly.camera import CAMERA_SERIES, CameraOpenError, CameraTracking
 from auvdock.fly.camera_sensor import CAMERA_SENSOR_SERIES, SYNTHETIC_NEEDS, CameraSensor
 from auvdock.fly.conformance import PARAMETER_GROUPS, check_parameters, describe, parameter_names
 from auvdock.fly.dock_source import LandingTargetSource
+from auvdock.fly.dock_telemetry import DOCK_TELEMETRY_SERIES, DockTelemetryIn
 from auvdock.fly.link import LinkError, MavlinkLink
 from auvdock.fly.link_health import LinkFigures, LinkHealth
 from auvdock.fly.plant import MavlinkPlant
@@ -108,6 +109,7 @@ from auvdock.loop.verdict import CaptureVerdict, MarginVerdict, Verdict
 from auvdock.runtime.clock import Clock
 from auvdock.runtime.interrupts import SigintDeferred, interrupt_name
 from auvdock.runtime.stderr_capture import StderrCapture
+from auvdock.sensing.readings import Reading
 from auvdock.vehicle import Vehicle
 from auvdock.vehicle.actuators import ArduSubActuators
 from auvdock.vehicle.ardusub import MODES, NEUTRAL_CHANNELS
@@ -269,13 +271,6 @@ def check_flyable(mission: Mission, controller: str | None = None) -> Vehicle:
             "fly does not yet fly a WEC dock in a sea (sim only: a vehicle would need the dock's telemetry); "
             "fly needs the dock's motion model (dock.heave)",
         )
-    if mission.sensors.dock_telemetry.enabled:
-        raise MissionError(
-            where,
-            "sensors.dock_telemetry",
-            "fly does not yet receive the dock's telemetry over MAVLink (sim only); fly takes the dock's "
-            "motion from its model (dock.heave) or a tracked dock (dock.source)",
-        )
     camera_sensor = mission.estimation == "filter" and mission.sensors.dock_camera.enabled
     if camera_sensor and mission.dock.source != "model":
         raise MissionError(
@@ -386,6 +381,9 @@ class FlySession:
         self._link_bad_since: float | None = None
         if mission.fly.delay_compensation:
             self.autopilot.delay = DelayCompensation(self.vehicle)
+        #: sensors.dock_telemetry: the dock's own motion record, received from its MAVLink system
+        tel = mission.sensors.dock_telemetry
+        self.dock_telemetry = DockTelemetryIn(tel) if mission.estimation == "filter" and tel.enabled else None
         if isinstance(self.dock, TrackedDock) and mission.dock.source == "mavlink":
             self._landing = LandingTargetSource(self.dock, self.telemetry, mission.fly.stale_abort_s)
 
@@ -500,6 +498,8 @@ class FlySession:
         moment in the tlog (for replay)."""
         now_us, messages = self.link.drain(marker, value)
         self.telemetry.feed(messages)
+        if self.dock_telemetry is not None:
+            self.dock_telemetry.feed(messages)
         self.link_health.feed(messages, getattr(self.link, "target_system", 1))
         link = self.link_health.figures()
         rtt = max(link.rtt_s, link.rtt_latest_s)  # (NaN before a TIMESYNC answer)
@@ -560,6 +560,10 @@ class FlySession:
             out.append("SYS_STATUS (battery)")
         if self._synthetic_sensor and self.telemetry.latest("SIM_STATE")[0] is None:
             out.append(SYNTHETIC_NEEDS)
+        if self.dock_telemetry is not None:
+            record = self.dock_telemetry.missing()
+            if record is not None:
+                out.append(record)
         return out
 
     def _wait_telemetry(self) -> None:
@@ -567,6 +571,8 @@ class FlySession:
         is missing every few seconds (ArduSub's position estimate can take 40 s after boot)."""
         clock = self.clock
         limit = self.mission.fly.telemetry_timeout_s
+        if self.dock_telemetry is not None:  # and the dock's record the forecaster starts on
+            limit += self.dock_telemetry.history_s
         t0 = clock.now()
         deadline = t0 + limit
         next_note = t0 + PROGRESS_EVERY_S
@@ -594,10 +600,11 @@ class FlySession:
         hint = ""
         if any("LOCAL_POSITION_NED" in name for name in missing):
             hint = " (ArduSub's position estimate: does the vehicle have a position source and an origin?)"
-        raise FlyAbortError(
-            f"no {', '.join(missing)} from {self.link.port} within {limit:g} s "
-            f"(fly.telemetry_timeout_s){hint}"
-        )
+        which = "fly.telemetry_timeout_s" if self.dock_telemetry is None else (
+            "fly.telemetry_timeout_s + sensors.dock_telemetry.history_s"
+        )  # fmt: skip
+        said = f"no {', '.join(missing)} from {self.link.port} within {limit:g} s ({which}){hint}"
+        raise FlyAbortError(said)
 
     def _set_frame(self) -> None:
         """Map the vehicle's pose onto the mission's start pose: averaged over the last
@@ -735,6 +742,8 @@ class FlySession:
         camera_series = CAMERA_SERIES if self.camera is not None else {}
         if self.camera_sensor is not None:
             camera_series = CAMERA_SENSOR_SERIES
+        if self.dock_telemetry is not None:
+            camera_series = {**camera_series, **DOCK_TELEMETRY_SERIES}
         self._plant = MavlinkPlant(self, camera_series)
         self._rec = FlyRecorder(
             self.out,
@@ -891,6 +900,18 @@ class FlySession:
         fence = geofence_violation(self.mission.fly.geofence, depth, self.telemetry.distance_from_start())
         if fence is not None:
             raise FlyAbortError(f"{fence} ({source})" if "depth" in fence else fence)
+
+    def _dock_motion(self) -> tuple[list[Reading], float]:
+        """The dock's new telemetry as ``dock_motion`` readings on the mission's clock, and its age (s);
+        none for longer than ``fly.stale_abort_s``: abort (the forecast would run on an old record)."""
+        assert self.dock_telemetry is not None
+        age = self.dock_telemetry.age_s(self._now_us)
+        if age > self.mission.fly.stale_abort_s:
+            raise FlyAbortError(
+                f"the dock's telemetry lost: no ODOMETRY from system {self.dock_telemetry.system} for "
+                f"{age:.1f} s (fly.stale_abort_s)"
+            )
+        return self.dock_telemetry.readings(self._model_dock.offset_s), age
 
     def _camera_step(self, t: float) -> tuple[bool, dict[str, np.ndarray]]:
         """The camera's fixes into the dock filter: (may steer?, series); aborts when lost."""

@@ -246,6 +246,12 @@ class DockTelemetrySettings(Strict):
         description="how much of the dock's record the vehicle has when the run starts, s (the "
         "forecaster estimates the sea's spectrum from it; 0: none)",
     )
+    mavlink_system: Annotated[int, Field(ge=1, le=255)] = Field(
+        default=2,
+        description="fly: the dock's MAVLink system id, whose ODOMETRY messages (the displacement from its "
+        "mean, NED m, MAV_FRAME_LOCAL_NED; stamped in UNIX time) are its telemetry; vehicle-sim sends them "
+        "from this id",
+    )
 
 
 class PositionSettings(Strict):

@@ -127,6 +127,7 @@ from auvdock.standins.ardusub_params import (
     vehicle_parameters,
 )
 from auvdock.standins.commands import MODE_NAMES, CommandHandler, SimEvent
+from auvdock.standins.dock_out import DockTelemetryOut
 from auvdock.standins.pilot_input import channels_from_manual_control, channels_from_override
 from auvdock.standins.telemetry_out import (
     DEFAULT_INTERVAL_US,
@@ -270,6 +271,11 @@ class VehicleSim:
                 dt=self.dt,
                 sea=self.sea,
             )
+        # sensors.dock_telemetry: the dock as its own MAVLink system, sending its motion (ODOMETRY)
+        tel = mission.sensors.dock_telemetry
+        self._dock_out: DockTelemetryOut | None = None
+        if mission.estimation == "filter" and tel.enabled:
+            self._dock_out = DockTelemetryOut(tel, self._dock, mission.seed)
         # each sensor's errors, defined once (auvdock.sensing.errors); the constant biases of this
         # run are drawn whether or not noise is on (same seed, same stream)
         rng = np.random.default_rng(mission.seed if seed is None else seed)
@@ -493,6 +499,8 @@ class VehicleSim:
         conn.first_byte = False
         self.clock.attach(conn)
         self._conn = conn
+        if self._dock_out is not None:
+            self._dock_out.attach(conn)
         with self._lock:
             self._out.conn = conn
             self._send_telemetry()  # the first HEARTBEAT, at t = 0 (binds a udpout socket)
@@ -712,7 +720,9 @@ class VehicleSim:
         return self._plant.x
 
     def _send_telemetry(self) -> None:
-        """Send what is due at the current simulated time."""
+        """Send what is due at the current simulated time (and the dock's telemetry, from its own system)."""
+        if self._dock_out is not None:
+            self._dock_out.step(self._k * self.dt, paused=self._out.paused)
         imu: tuple[np.ndarray, np.ndarray] | None = None
         for name in self._streams.due(self._k * self.dt):
             if name in IMU_STREAMS:
