@@ -135,3 +135,66 @@ def test_capture_verdict_needs_the_nose_inside_by_the_95_percent_radius() -> Non
     assert not v.judge(_estimate(m, need + 0.005, 0.05)).docked  # too uncertain
     said = v.judge(_estimate(m, need + r95 + 0.005, std)).describe()
     assert said.startswith("on the navigation filter's estimate: captured with a 95 % margin of 0.028 m")
+
+
+# -- the dock's telemetry over MAVLink ----------------------------------------------------------------
+BASIN = ROOT / "missions" / "basin_regular.yaml"
+
+
+def _received(msg, src: int):
+    """``msg`` as fly receives it from system ``src`` (packed and parsed)."""
+    from pymavlink.dialects.v20 import ardupilotmega as m2
+
+    mav = m2.MAVLink(None, srcSystem=src, srcComponent=191)
+    return m2.MAVLink(None).parse_char(msg.pack(mav))
+
+
+def test_dock_odometry_becomes_dock_motion_readings_on_the_mission_clock() -> None:
+    """ODOMETRY from the dock's system: its x, y, z and covariance as sim's dock_motion readings, at
+    time_usec less the vehicle's time at the mission's t = 0; the first step gets the last history_s of the
+    record, later steps the new samples; another system's ODOMETRY is not the dock's."""
+    from auvdock.fly.dock_telemetry import DockTelemetryIn
+    from auvdock.standins.dock_out import odometry
+
+    settings = load_mission(BASIN).sensors.dock_telemetry.model_copy(update={"history_s": 1.0})
+    dock = DockTelemetryIn(settings)
+    assert dock.missing() == (
+        "the dock's telemetry (ODOMETRY from system 2): 0 of 1 s of its record "
+        "(sensors.dock_telemetry.history_s)"
+    )
+    record = [(_received(odometry(0.1 * k, np.array([0.0, 0.0, 0.01 * k]), 0.05), 2), k) for k in range(20)]
+    other = _received(odometry(0.55, np.array([9.0, 9.0, 9.0]), 0.05), 7)
+    dock.feed([(1000 * k, msg) for msg, k in record[:15]] + [(15_000, other)])
+    assert dock.missing() is None  # 1.4 s of record
+    first = dock.readings(vehicle_time_at_zero_s=1.0)
+    assert [r.kind for r in first] == ["dock_motion"] * 11  # 0.4 .. 1.4 s: the last second
+    assert first[0].t == pytest.approx(0.4 - 1.0) and first[-1].t == pytest.approx(1.4 - 1.0)
+    assert first[-1].value == pytest.approx([0.0, 0.0, 0.14])
+    assert first[-1].std == pytest.approx([0.05, 0.05, 0.05])
+    dock.feed([(1000 * k, msg) for msg, k in record[15:]])
+    later = dock.readings(vehicle_time_at_zero_s=1.0)
+    assert [round(r.t, 6) for r in later] == pytest.approx([0.5, 0.6, 0.7, 0.8, 0.9])
+    assert dock.age_s(19_000 + 250_000) == pytest.approx(0.25)
+
+
+@pytest.mark.slow
+def test_fly_forecasts_the_dock_from_its_telemetry_over_mavlink(loop, tmp_path) -> None:
+    """basin_regular (waves, the dock's telemetry, the camera alone) with Sequential, which forecasts
+    the dock's motion from the telemetry vehicle-sim sends as the dock's own system: fly waits for the
+    record, flies on the forecast and captures, right by the truth.  Not compared with sim's time: the
+    rehearsal's sea is the one at the vehicle's time when the loop starts (after the record's wait),
+    sim's the one at 0."""
+    camera = {"source": "synthetic", "calibration": None}
+    sensors = {"dock_telemetry": {"enabled": True, "history_s": 5.0}}
+    mission = write_mission(tmp_path / "basin.yaml", base=BASIN, camera=camera, sensors=sensors)
+    m = load_mission(mission)
+    sim, port = loop.vehicle(m, truth_out=tmp_path / "truth.h5", hold_start=True, noise=True)
+    res = loop.fly(port, tmp_path, "--arm", "--timeout", "40", "-c", "sequential", mission=mission)
+    assert res.exit_code == 0, res.output + res.stderr
+    sim.stop()
+    flight = next(tmp_path.glob("basin_regular_sequential_fly_*.h5"))
+    r = read_run(flight)
+    assert np.nanmax(r.extras["dock_telemetry_age_s"]) < 0.5  # 10 Hz, 0.25 s late
+    assert np.mean(np.isfinite(r.extras["dock_forecast_m"])) > 0.95  # the forecast flew
+    check = check_flight(flight, tmp_path / "truth.h5")
+    assert check.verdict_right and check.truth_contact_at_verdict == "captured", check.lines()
