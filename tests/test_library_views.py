@@ -185,18 +185,22 @@ def test_catalogue_agrees_with_the_recording_code() -> None:
     from auvdock.controllers.fse import FSEMPC
     from auvdock.estimation.stage import ESTIMATION_SERIES, FORECAST_HORIZONS_S, FORECAST_SERIES, WAVE_SERIES
     from auvdock.fly.camera import CAMERA_SERIES, CAMERA_STATES
+    from auvdock.fly.camera_sensor import CAMERA_SENSOR_SERIES
+    from auvdock.fly.dock_telemetry import DOCK_TELEMETRY_SERIES
     from auvdock.fly.plant import TELEMETRY_COLUMNS
     from auvdock.loop.guidance import GUIDANCE_PHASES, GUIDANCE_SERIES
     from auvdock.loop.simulated_plant import SEA_COLUMNS
+    from auvdock.standins.truth_record import CONTACT_STATUSES
     from auvdock.vehicle.ardusub import CHANNELS
 
     assert run_module.FORECAST_HORIZONS_S is FORECAST_HORIZONS_S  # one definition, imported
     assert run_module.GUIDANCE_PHASES is GUIDANCE_PHASES and run_module._CAMERA_STATES == CAMERA_STATES
+    assert run_module._CONTACT_STATUSES == CONTACT_STATUSES
     assert run_module._KNOWN["channels_us"].axes[0][1] == CHANNELS
     for table in (FSEMPC.extra_series, ESTIMATION_SERIES, FORECAST_SERIES, WAVE_SERIES, GUIDANCE_SERIES):
         for name, shape in table.items():
             assert run_module._is_known(name, shape), name
-    for table in (CAMERA_SERIES, TELEMETRY_COLUMNS, SEA_COLUMNS):
+    for table in (CAMERA_SERIES, CAMERA_SENSOR_SERIES, DOCK_TELEMETRY_SERIES, TELEMETRY_COLUMNS, SEA_COLUMNS):
         for name, shape in table.items():
             assert run_module._is_known(name, shape), name
     # a series with components of several units is split into variables that cover its rows once

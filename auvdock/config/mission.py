@@ -467,8 +467,9 @@ class CameraSpec(Strict):
     calibration: str | None = Field(
         default=None,
         description=(
-            "camera file from auvdock calibrate (relative to the mission); required unless the "
-            "source is synthetic (then an ideal 640x480, 80 deg camera)"
+            "camera file from auvdock calibrate (relative to the mission, else a shipped one: "
+            "cameras/ideal_640x480_80deg.yaml); required unless the source is synthetic (then an ideal "
+            "640x480, 80 deg camera)"
         ),
     )
     mount: CameraMountSpec = Field(default_factory=CameraMountSpec)
@@ -604,8 +605,12 @@ class Mission(Strict):
                 f"a camera file is required for source {c.source!r} (make one with auvdock calibrate)",
             )
         p = Path(c.calibration)
-        if not p.is_absolute() and self._source is not None:
-            p = self._source.parent / p
+        if not p.is_absolute():  # beside the mission; else a shipped camera file (as missions go by name)
+            from auvdock.config.catalog import missions_dir
+
+            beside = p if self._source is None else self._source.parent / p
+            shipped = missions_dir() / p
+            p = beside if beside.exists() or not shipped.exists() else shipped
         try:
             return load_camera(p)
         except (OSError, ValueError) as e:

@@ -90,6 +90,9 @@ _HORIZON_LABELS = tuple(f"{h:g}s".replace(".", "p") for h in FORECAST_HORIZONS_S
 # the code names of fly's older camera tracker's states (auvdock.fly.camera.CAMERA_STATES; not imported:
 # the fly package loads the MAVLink session; a test keeps them equal)
 _CAMERA_STATES = ("searching", "tracking", "holding", "lost")
+#: A stand-in's truth rows' contact codes (auvdock.standins.truth_record.CONTACT_STATUSES, copied: the
+#: stand-ins' package loads MAVLink; kept equal by tests/test_library_views.py).
+_CONTACT_STATUSES = ("free", "captured", "collided")
 #: The information's unit: the flow filter's gramian G sums H^T R^-1 H, (m/s)^-2.
 INFORMATION_UNITS = "s^2/m^2"
 
@@ -469,6 +472,16 @@ _KNOWN: dict[str, _Info] = {
         f"the dock position the camera's newest fix gives, {_N}",
     ),
     "camera_fixes": _Info((), "", "", "camera fixes", "camera fixes received during the step"),
+    "camera_frames": _Info((), "", "", "camera frames", "camera frames the detection took during the step"),
+    "loop_late_s": _Info(
+        (), "s", "", "step lateness", "how late the control step started on the session's clock (0 on time)"
+    ),
+    "dock_telemetry_age_s": _Info(
+        (), "s", "", "dock telemetry age", "since the dock's newest ODOMETRY arrived (sensors.dock_telemetry)"
+    ),
+    "contact_status": _Info(
+        (), "", "", "contact", "the truth's contact with the dock's body (flag_meanings)", _CONTACT_STATUSES
+    ),
 }
 
 # stored series whose components have several units -> the variables of the xarray view
