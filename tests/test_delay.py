@@ -149,7 +149,8 @@ def test_the_link_health_from_timesync_and_sequence_numbers() -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(("controller", "seed"), [("oracle", 0), ("oracle", 1), ("sequential", 1)])
+# (and oracle with seed 1 until 2026-12-07: the suite's 8 minutes)
+@pytest.mark.parametrize(("controller", "seed"), [("oracle", 0), ("sequential", 1)])
 def test_fly_docks_through_100_ms_with_jitter_and_loss(loop, tmp_path, controller, seed) -> None:
     """The first figure's link: 100 ms +- 30 ms and 5 % lost each way.  With the forward prediction Oracle
     (on the autopilot's state) and Sequential FSE-MPC (on the navigation filter, its readings held back

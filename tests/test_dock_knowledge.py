@@ -104,12 +104,13 @@ def test_oracle_is_told_the_dock_and_every_other_controller_forecasts_it():
     assert not any(s.startswith("Assumption 2") or "Assumption 2" in s for s in idealisations(m, False))
 
 
-@pytest.mark.parametrize("seed", range(10))
+@pytest.mark.parametrize("seed", range(6))
 def test_the_basin_mission_captures_forecasting_the_dock_from_its_telemetry(seed):
     """basin_regular as shipped (waves, the camera alone, the dock's motion forecast from its telemetry,
     the waves in the navigation filter): Certainty-equivalent MPC captures without collision, under
     0.15 m/s at contact, and the forecast of the dock's displacement 1 s ahead errs under 3 cm RMS (the
-    heave: 6.35 cm amplitude)."""
+    heave: 6.35 cm amplitude).  Six seeds (ten until 2026-12-07: the suite's 8 minutes; the basin_capture
+    campaign flies fifty)."""
     import auvdock
 
     o = auvdock.simulate("basin_regular", controller="ce", seed=seed).outcome

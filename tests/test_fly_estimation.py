@@ -165,7 +165,7 @@ def _fly_in_current(loop: Loopback, tmp_path: Path, controller: str, timeout_s: 
     return result, read_run(out), flown
 
 
-@pytest.mark.parametrize("seed", [0, 1, 2])
+@pytest.mark.parametrize("seed", [0, 1])  # (and 2 until 2026-12-07: the suite's 8 minutes)
 @pytest.mark.parametrize("controller", ["sequential", "optimized"])
 @pytest.mark.slow
 def test_flow_estimating_controllers_learn_an_unknown_current_and_dock(
