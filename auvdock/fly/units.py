@@ -11,9 +11,7 @@ RAW_IMU             xacc, yacc, zacc (int16)       raw; ArduPilot sends mG as SC
 SCALED_IMU2         xgyro, ygyro, zgyro (int16)    mrad/s
 SCALED_PRESSURE2    press_abs (float)              hPa
 VFR_HUD             alt (float)                    m, up (ArduSub: minus the depth)
-SIM_STATE           lat, lon (float), alt (float)  deg, deg, m up: a simulator's true position,
-                                                   the mission's frame at latitude 0, longitude 0
-                                                   (:func:`sim_latlon`, :func:`sim_position_ned`)
+SIM_STATE           lat, lon, alt (float)          deg, deg, m up: a simulator's truth (:func:`sim_latlon`)
 ==================  ============================  ==========================================
 
 Depth from pressure: ``(p - p_surface) 100 / (rho g)`` with sea water's density; ArduSub's
