@@ -208,3 +208,16 @@ def test_fly_forecasts_the_dock_from_its_telemetry_over_mavlink(loop, tmp_path) 
     assert np.mean(np.isfinite(r.extras["dock_forecast_m"])) > 0.95  # the forecast flew
     check = check_flight(flight, tmp_path / "truth.h5")
     assert check.verdict_right and check.truth_contact_at_verdict == "captured", check.lines()
+
+
+def test_replay_of_a_camera_flight_says_the_frames_are_not_in_the_tlog(tmp_path) -> None:
+    """A flight's tlog holds its messages, not the camera's frames: replay refuses a camera flight in one
+    line (it reran into a traceback on the frame grabber's clock)."""
+    from auvdock.fly.replay import ReplayError, replay
+
+    with pytest.raises(ReplayError) as e:
+        replay(tmp_path / "flight.tlog", load_mission(TANK_0P6), tmp_path / "r.h5")
+    assert str(e.value) == (
+        "sensors.dock_camera: the navigation filter's camera fixes came from camera frames, which a tlog "
+        "does not hold (replay does not rerun a camera flight yet)"
+    )

@@ -276,7 +276,8 @@ def replay(
     Raises
     ------
     ReplayError
-        A tlog without auvdock's markers, or a camera-docked mission.
+        A tlog without auvdock's markers, or a mission with a camera (``dock.source: camera``, or
+        ``sensors.dock_camera``).
     MissionError
         As :class:`~auvdock.fly.session.FlySession`.
     """
@@ -284,6 +285,11 @@ def replay(
     if mission.dock.source == "camera":
         raise ReplayError(
             "dock.source camera: the dock's fixes came from camera frames, which a tlog does not hold"
+        )
+    if mission.estimation == "filter" and mission.sensors.dock_camera.enabled:
+        raise ReplayError(
+            "sensors.dock_camera: the navigation filter's camera fixes came from camera frames, which a "
+            "tlog does not hold (replay does not rerun a camera flight yet)"
         )
     messages = _messages(path)
     link = ReplayLink(path, messages)
