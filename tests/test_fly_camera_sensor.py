@@ -20,6 +20,7 @@ from helpers.loopback import ROOT, Loopback, write_mission
 
 from auvdock.config.mission import MissionError, load_mission
 from auvdock.estimation.estimate import Estimate
+from auvdock.fly.replay import replay
 from auvdock.fly.session import check_flyable
 from auvdock.fly.truth_check import check_flight
 from auvdock.loop.simulation import simulate
@@ -81,6 +82,14 @@ def test_fly_captures_on_the_camera_alone_as_sim_does(loop, tmp_path) -> None:
     assert check.verdict_right and check.truth_contact_at_verdict == "captured", check.lines()
     truth = read_run(tmp_path / "truth.h5").outcome()
     assert math.isnan(truth["first_collided_armed_t_s"])
+    # and the flight replays to the same thrust at every step: the fixes it handed the filter are in its
+    # tlog (the frames are not), handed over at the same steps
+    again, _ = replay(flight.with_suffix(".tlog"), m, tmp_path / "replay.h5")
+    assert again.reason == "docked" and again.message in res.output  # the same verdict, said the same
+    rr = read_run(tmp_path / "replay.h5")
+    assert len(rr.time_s) == len(r.time_s)
+    np.testing.assert_allclose(rr.thrust_N, r.thrust_N, rtol=0, atol=1e-9)
+    np.testing.assert_array_equal(rr.extras["camera_fixes"], r.extras["camera_fixes"])
 
 
 def test_synthetic_camera_without_sim_state_says_what_is_missing(loop, tmp_path) -> None:
@@ -208,16 +217,3 @@ def test_fly_forecasts_the_dock_from_its_telemetry_over_mavlink(loop, tmp_path) 
     assert np.mean(np.isfinite(r.extras["dock_forecast_m"])) > 0.95  # the forecast flew
     check = check_flight(flight, tmp_path / "truth.h5")
     assert check.verdict_right and check.truth_contact_at_verdict == "captured", check.lines()
-
-
-def test_replay_of_a_camera_flight_says_the_frames_are_not_in_the_tlog(tmp_path) -> None:
-    """A flight's tlog holds its messages, not the camera's frames: replay refuses a camera flight in one
-    line (it reran into a traceback on the frame grabber's clock)."""
-    from auvdock.fly.replay import ReplayError, replay
-
-    with pytest.raises(ReplayError) as e:
-        replay(tmp_path / "flight.tlog", load_mission(TANK_0P6), tmp_path / "r.h5")
-    assert str(e.value) == (
-        "sensors.dock_camera: the navigation filter's camera fixes came from camera frames, which a tlog "
-        "does not hold (replay does not rerun a camera flight yet)"
-    )

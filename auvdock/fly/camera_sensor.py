@@ -44,7 +44,19 @@ if TYPE_CHECKING:
     from auvdock.config.mission import Mission
     from auvdock.world.dock import ClockedDock
 
-__all__ = ["CameraSensor", "CAMERA_SENSOR_SERIES", "SYNTHETIC_NEEDS", "sim_state_pose"]
+__all__ = [
+    "CameraSensor",
+    "RecordedCamera",
+    "CAMERA_SENSOR_SERIES",
+    "FIX_RECORD",
+    "SYNTHETIC_NEEDS",
+    "sim_state_pose",
+]
+
+#: The name of the tlog-only DEBUG_FLOAT_ARRAY in which fly records each camera fix it hands the filter
+#: (data: t, the fix x y z, its std x y z, markers, latency; float32), so that replay hands a replayed
+#: session the same fixes at the same steps (:class:`RecordedCamera`).
+FIX_RECORD = "auvd_cam"
 
 #: Per-step series of a flight with the dock camera as a sensor (name -> per-row shape).
 CAMERA_SENSOR_SERIES: dict[str, tuple[int, ...]] = {
@@ -75,6 +87,30 @@ class _Fix:
     std_camera_m: np.ndarray
     markers: int
     latency_s: float
+
+    def row(self) -> np.ndarray:
+        """The fix as recorded in the tlog (float32: what the filter is handed, live and replayed)."""
+        return np.array(
+            [self.t, *self.dock_camera_m, *self.std_camera_m, self.markers, self.latency_s], dtype=np.float32
+        )
+
+    @classmethod
+    def of_row(cls, row: Any) -> _Fix:
+        r = np.asarray(row, dtype=np.float32)[:9].astype(float)
+        return cls(float(r[0]), r[1:4].copy(), r[4:7].copy(), int(round(r[7])), float(r[8]))
+
+
+def _series(fixes: list[_Fix], last: _Fix | None, frames: float) -> dict[str, np.ndarray]:
+    return {
+        "camera_fixes": np.asarray(float(len(fixes))),
+        "camera_markers": np.asarray(float(last.markers if last else 0)),
+        "camera_latency_s": np.asarray(fixes[-1].latency_s if fixes else np.nan),
+        "camera_frames": np.asarray(frames),
+    }
+
+
+def _readings(fixes: list[_Fix]) -> list[Reading]:
+    return [Reading("dock", f.t, f.dock_camera_m.copy(), f.std_camera_m.copy()) for f in fixes]
 
 
 class _FollowingDock:
@@ -184,6 +220,7 @@ class CameraSensor:
         self.error: BaseException | None = None
         self._error_said = False
         self._last: _Fix | None = None
+        self._taken: list[_Fix] = []
 
     # -- the synthetic camera's truth --------------------------------------------------------------
     def _true_pose(self) -> tuple[float, np.ndarray] | None:
@@ -265,12 +302,21 @@ class CameraSensor:
         )
 
     # -- every control step ------------------------------------------------------------------------
-    def take(self) -> tuple[list[Reading], dict[str, np.ndarray]]:
-        """The fixes made since the last call as ``dock`` readings (oldest first), and the series
-        to record."""
+    def before_drain(self) -> list[np.ndarray]:
+        """Take the fixes made since the last step (held for :meth:`take`), as the rows the session records
+        in the tlog before the step's messages are drained (where replay finds them at the same step)."""
         with self._lock:
-            fixes = list(self._fixes)
+            fixes = [_Fix.of_row(f.row()) for f in self._fixes]  # as recorded: float32
             self._fixes.clear()
+        self._taken.extend(fixes)  # (kept for the next take when this step takes none: stale telemetry)
+        return [f.row() for f in fixes]
+
+    def feed(self, messages: list[tuple[int, Any]]) -> None:
+        """Nothing: a live camera's fixes come from its thread."""
+
+    def take(self) -> tuple[list[Reading], dict[str, np.ndarray]]:
+        """The fixes taken at this step as ``dock`` readings (oldest first), and the series to record."""
+        fixes, self._taken = self._taken, []
         if self.error is not None and not self._error_said:
             self._error_said = True
             self._on_event(f"camera: {self.error}")
@@ -278,12 +324,41 @@ class CameraSensor:
             self._last = fixes[-1]
         frames = self.frames - self._frames_seen
         self._frames_seen = self.frames
-        last = self._last
-        series = {
-            "camera_fixes": np.asarray(float(len(fixes))),
-            "camera_markers": np.asarray(float(last.markers if last else 0)),
-            "camera_latency_s": np.asarray(fixes[-1].latency_s if fixes else np.nan),
-            "camera_frames": np.asarray(float(frames)),
-        }
-        readings = [Reading("dock", f.t, f.dock_camera_m, f.std_camera_m) for f in fixes]
-        return readings, series
+        return _readings(fixes), _series(fixes, self._last, float(frames))
+
+
+class RecordedCamera:
+    """A replayed flight's camera: the fixes the flight recorded in its tlog (:data:`FIX_RECORD`), handed
+    over at the steps they were handed over in flight (no frames, no thread)."""
+
+    description = "the flight's recorded fixes (replay)"
+
+    def __init__(self) -> None:
+        self._pending: list[_Fix] = []
+        self._last: _Fix | None = None
+
+    def start(self) -> None:
+        """Nothing to start."""
+
+    def stop(self) -> None:
+        """Nothing to stop."""
+
+    def start_mission_clock(self, zero_time_s: float) -> None:
+        """Nothing: the recorded fixes are on the mission's clock."""
+
+    def before_drain(self) -> list[np.ndarray]:
+        """Nothing to record: the tlog has them."""
+        return []
+
+    def feed(self, messages: list[tuple[int, Any]]) -> None:
+        """Take the recorded fixes among the drained messages."""
+        for _, msg in messages:
+            if msg.get_type() == "DEBUG_FLOAT_ARRAY" and str(msg.name) == FIX_RECORD:
+                self._pending.append(_Fix.of_row(msg.data))
+
+    def take(self) -> tuple[list[Reading], dict[str, np.ndarray]]:
+        """The fixes recorded at this step, as in flight (the frames' count unknown: NaN)."""
+        fixes, self._pending = self._pending, []
+        if fixes:
+            self._last = fixes[-1]
+        return _readings(fixes), _series(fixes, self._last, float("nan"))

@@ -58,7 +58,8 @@ PILOT_INPUT_TYPES = ("MANUAL_CONTROL", "RC_CHANNELS_OVERRIDE")
 def for_session(msg: Any, vehicle_system: int, own_system: int) -> bool:
     """Whether a received message goes to the session (:meth:`MavlinkLink.drain`): the
     vehicle's own messages, LANDING_TARGET from anyone (a positioning system on the link), ODOMETRY
-    from any other system (a dock's motion unit: :mod:`auvdock.fly.dock_telemetry`),
+    from any other system (a dock's motion unit: :mod:`auvdock.fly.dock_telemetry`), the session's own
+    records in its tlog (DEBUG_FLOAT_ARRAY: the camera's fixes, :mod:`auvdock.fly.camera_sensor`),
     and pilot input (MANUAL_CONTROL, RC_CHANNELS_OVERRIDE) from any system but ours (another
     ground station taking over).  One rule for the link and for a replay of its tlog."""
     mtype = msg.get_type()
@@ -66,6 +67,8 @@ def for_session(msg: Any, vehicle_system: int, own_system: int) -> bool:
     if src == vehicle_system or mtype == "LANDING_TARGET":
         return True
     if mtype == "ODOMETRY" and src != own_system:  # a dock's motion unit, its own system (fly.dock_telemetry)
+        return True
+    if mtype == "DEBUG_FLOAT_ARRAY" and src == own_system:  # the session's own records (a replayed tlog's)
         return True
     return mtype in PILOT_INPUT_TYPES and src != own_system
 
@@ -268,6 +271,16 @@ class MavlinkLink:
                 )
                 self._tlog.write(struct.pack(">Q", now) + bytes(msg.pack(self.conn.mav)))
         return now, taken
+
+    def record_rows(self, name: str, rows: list[Any]) -> None:
+        """Write each row (at most 58 floats) as a DEBUG_FLOAT_ARRAY ``name`` from our system id to the tlog
+        only (what replay needs and the vehicle does not: the camera's fixes)."""
+        for i, row in enumerate(rows):
+            data = [float(v) for v in row][:58]
+            data += [0.0] * (58 - len(data))
+            stamp = int(self.clock.time() * 1e6)
+            msg = self.conn.mav.debug_float_array_encode(stamp, name.encode()[:10], i, data)
+            self._record(msg.pack(self.conn.mav))
 
     def note(self, text: str) -> None:
         """Write a STATUSTEXT (INFO, at most 50 characters) from our system id to the tlog only."""

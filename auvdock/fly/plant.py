@@ -66,6 +66,7 @@ class MavlinkPlant:
         # how late this step starts on the session's clock (the machine not keeping pace: a slow step
         # before it, a busy CPU), s; 0 in simulated time
         self._late = max(0.0, s.clock.now() - (self._t_start + t))
+        s._record_camera_fixes()
         s._now_us = s._take_telemetry("auvd_step", int(round(t / s.dt)))
         if not self._clock_set:
             s._set_dock_clock(t)

@@ -157,6 +157,8 @@ class ReplayLink:
         self.path = Path(path)
         self.port = f"replay:{self.path.name}"
         self.clock = ReplayClock()
+        #: A replay (the session hands a camera flight the fixes recorded in the tlog).
+        self.replaying = True
         self.on_event: Callable[[str], None] | None = None
         self._msgs = _messages(self.path) if messages is None else messages
         self._i = 0
@@ -238,6 +240,9 @@ class ReplayLink:
     def note(self, text: str) -> None:
         return None
 
+    def record_rows(self, name: str, rows: Any) -> None:
+        return None
+
     def send_neutral(self) -> None:
         return None
 
@@ -276,8 +281,8 @@ def replay(
     Raises
     ------
     ReplayError
-        A tlog without auvdock's markers, or a mission with a camera (``dock.source: camera``, or
-        ``sensors.dock_camera``).
+        A tlog without auvdock's markers, or a camera-docked mission (``dock.source: camera``; the dock
+        camera as a sensor replays: its fixes are in the tlog).
     MissionError
         As :class:`~auvdock.fly.session.FlySession`.
     """
@@ -285,11 +290,6 @@ def replay(
     if mission.dock.source == "camera":
         raise ReplayError(
             "dock.source camera: the dock's fixes came from camera frames, which a tlog does not hold"
-        )
-    if mission.estimation == "filter" and mission.sensors.dock_camera.enabled:
-        raise ReplayError(
-            "sensors.dock_camera: the navigation filter's camera fixes came from camera frames, which a "
-            "tlog does not hold (replay does not rerun a camera flight yet)"
         )
     messages = _messages(path)
     link = ReplayLink(path, messages)

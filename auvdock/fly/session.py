@@ -77,7 +77,13 @@ from auvdock.controllers.registry import CONTROLLERS, split_controller
 from auvdock.controllers.status import STATUS_NAMES
 from auvdock.estimation.delay import DelayCompensation
 from auvdock.fly.camera import CAMERA_SERIES, CameraOpenError, CameraTracking
-from auvdock.fly.camera_sensor import CAMERA_SENSOR_SERIES, SYNTHETIC_NEEDS, CameraSensor
+from auvdock.fly.camera_sensor import (
+    CAMERA_SENSOR_SERIES,
+    FIX_RECORD,
+    SYNTHETIC_NEEDS,
+    CameraSensor,
+    RecordedCamera,
+)
 from auvdock.fly.conformance import PARAMETER_GROUPS, check_parameters, describe, parameter_names
 from auvdock.fly.dock_source import LandingTargetSource
 from auvdock.fly.dock_telemetry import DOCK_TELEMETRY_SERIES, DockTelemetryIn
@@ -337,8 +343,9 @@ class FlySession:
         self.dt = self.autopilot.dt
         self.events: list[tuple[float, str]] = []
         self.camera: CameraTracking | None = None
-        #: The dock camera as the navigation filter's sensor (sensors.dock_camera), once started.
-        self.camera_sensor: CameraSensor | None = None
+        #: The dock camera as the navigation filter's sensor (sensors.dock_camera), once started (a replay:
+        #: the flight's recorded fixes).
+        self.camera_sensor: CameraSensor | RecordedCamera | None = None
         self._t0 = self.clock.now()
         self._frame: Any = None
         self._now_us = 0
@@ -491,6 +498,14 @@ class FlySession:
         m = self.mission
         return m.estimation == "filter" and m.sensors.dock_camera.enabled and m.camera.source == "synthetic"
 
+    def _record_camera_fixes(self) -> None:
+        """The camera's fixes of this step, taken now and written to the tlog before the step's messages are
+        drained: replay finds them at the same step (:class:`auvdock.fly.camera_sensor.RecordedCamera`)."""
+        if self.camera_sensor is not None:
+            rows = self.camera_sensor.before_drain()
+            if rows:
+                self.link.record_rows(FIX_RECORD, rows)
+
     def _take_telemetry(self, marker: str, value: int = 0) -> int:
         """The messages received since the last call into :attr:`telemetry` and :attr:`state`
         (:class:`auvdock.fly.vehicle_state.VehicleState`: parameters, acks, battery, the vehicle's
@@ -500,6 +515,8 @@ class FlySession:
         self.telemetry.feed(messages)
         if self.dock_telemetry is not None:
             self.dock_telemetry.feed(messages)
+        if self.camera_sensor is not None:
+            self.camera_sensor.feed(messages)
         self.link_health.feed(messages, getattr(self.link, "target_system", 1))
         link = self.link_health.figures()
         rtt = max(link.rtt_s, link.rtt_latest_s)  # (NaN before a TIMESYNC answer)
@@ -629,6 +646,10 @@ class FlySession:
         (the older tracker of a point dock) -- open the frame source and start detecting."""
         m = self.mission
         if m.estimation == "filter" and m.sensors.dock_camera.enabled:
+            if getattr(self.link, "replaying", False):  # the flight's fixes, as recorded in its tlog
+                self.camera_sensor = RecordedCamera()
+                self._event(f"camera: {self.camera_sensor.description}")
+                return
             try:
                 self.camera_sensor = CameraSensor(
                     m, self.clock, self._model_dock, lambda: self.telemetry.latest("SIM_STATE"), self._event
