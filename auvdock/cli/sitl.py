@@ -151,7 +151,11 @@ def sitl_physics(
             listen=address,
             hold_until_thrust=hold,
             duration_s=duration,
-            dock_offset_ned_m=m.camera.synthetic.dock_offset_m if target is not None else (0.0, 0.0, 0.0),
+            # the older camera tracker's rehearsal renders the dock moved by camera.synthetic.dock_offset_m;
+            # the dock camera as a sensor renders the true dock of the seed (build_dock(truth=True))
+            dock_offset_ned_m=m.camera.synthetic.dock_offset_m
+            if target is not None and not (m.estimation == "filter" and m.sensors.dock_camera.enabled)
+            else (0.0, 0.0, 0.0),
             on_event=on_event,
             clock=clock,
             truth_out=truth_out,

@@ -382,11 +382,12 @@ class SitlPhysics:
                 )
             self.flow = mission.build_flow()
             self.sea = mission.build_sea()  # the waves act on the vehicle here as in sim
-            self.dock = mission.build_dock(self.sea)
+            # the truth of this seed, as sim draws it (dock.position_std_m, start.position_std_m)
+            self.dock = mission.build_dock(self.sea, truth=True)
+            self._x_start = mission.true_start_state().astype(float)
             self.plant = TruthPlant(
-                self.vehicle, self.flow, mission.start_state(), substeps=n_sub, surface=surface, sea=self.sea
+                self.vehicle, self.flow, self._x_start, substeps=n_sub, surface=surface, sea=self.sea
             )
-        self._x_start = mission.start_state().astype(float)
         self._dock_offset = np.array(dock_offset_ned_m, dtype=float).reshape(3)
         #: The true dock: where the camera's view puts it (the distances and the truth file measure to it).
         self.true_dock = ShiftedDock(self.dock, self._dock_offset)
