@@ -63,6 +63,13 @@ def main() -> None:
     ap.add_argument("--controller", default="oracle")
     ap.add_argument("--noise", action=argparse.BooleanOptionalAction, default=True, help="sensor noise")
     ap.add_argument("--out", type=Path, default=None, help="where the files go (default: a temporary folder)")
+    ap.add_argument(
+        "--received-log",
+        type=int,
+        default=100_000,
+        help="entries of vehicle-sim's log of received messages (a test hook; 100,000 by default, about "
+        "0.5 MB a tank flight until full)",
+    )
     args = ap.parse_args()
     warnings.simplefilter("ignore")
     import h5py
@@ -101,11 +108,22 @@ def main() -> None:
         port = int(s.getsockname()[1])
     truth = out / "truth.h5"
     link = f"udpout:127.0.0.1:{port}"
-    sim = VehicleSim(m, port=link, clock=clock, noise=args.noise, hold_start=True, truth_out=truth).start()
+    sim = VehicleSim(
+        m,
+        port=link,
+        clock=clock,
+        noise=args.noise,
+        hold_start=True,
+        truth_out=truth,
+        received_maxlen=args.received_log,
+    ).start()
     runner = CliRunner()
     flights = []
     noise = "on" if args.noise else "off"
-    print(f"soak: {args.flights} flights of {args.controller} on {mission.stem}{camera_note}, noise {noise}")
+    print(
+        f"soak: {args.flights} flights of {args.controller} on {mission.stem}{camera_note}, noise {noise}, "
+        f"vehicle-sim's received log {args.received_log} entries"
+    )
     print("flight  ended                      files     RSS MB  trimmed  fds")
     try:
         for i in range(args.flights):

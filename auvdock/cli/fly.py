@@ -34,6 +34,10 @@ from auvdock.config.mission import Mission, MissionError
 from auvdock.runtime.clock import Clock, wall_clock
 from auvdock.runtime.interrupts import interrupt_name
 
+#: vehicle-sim's log of received messages (``VehicleSim.received``, a test hook): the last this many, so
+#: that a stand-in left running does not grow (about 1 kB an entry; 20 a second while fly flies).
+RECEIVED_LOG = 2_000
+
 if TYPE_CHECKING:
     from auvdock.camera.truth_stream import TruthCameraStream
     from auvdock.standins.vehicle_sim import VehicleSim
@@ -296,7 +300,14 @@ def vehicle_sim(
     try:
         try:
             sim = VehicleSim(
-                m, port=port, speed=speed, clock=clock, noise=noise, hold_start=hold, truth_out=truth_out
+                m,
+                port=port,
+                speed=speed,
+                clock=clock,
+                noise=noise,
+                hold_start=hold,
+                truth_out=truth_out,
+                received_maxlen=RECEIVED_LOG,
             )
             if target is not None:
                 stream = _truth_camera(m, sim, target, camera)
