@@ -38,6 +38,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from auvdock.camera.detection_loop import DetectionLoop
 from auvdock.camera.layout import MarkerLayout
 from auvdock.camera.model import CameraModel, CameraMount, camera_from_dock
 from auvdock.camera.pose import MarkerDetector, estimate_dock_pose
@@ -244,7 +245,7 @@ class DockFix:
     latency_s: float
 
 
-class DockTracker:
+class DockTracker(DetectionLoop):
     """Detect the dock's markers in a background thread and publish :class:`DockFix` es.
 
     Parameters
@@ -310,26 +311,6 @@ class DockTracker:
             out = list(self._fixes)
             self._fixes.clear()
         return out
-
-    def _loop(self) -> None:
-        last = -1
-        try:
-            while not self._stop.is_set():
-                frame = self.grabber.wait_new(last, timeout_s=0.2)
-                if frame is None:
-                    if self.grabber.error is not None:
-                        self.error = self.grabber.error
-                        return
-                    continue
-                last = frame.index
-                self.frames += 1
-                fix = self.process(frame)
-                if fix is not None:
-                    self.frames_with_fix += 1
-                    with self._lock:
-                        self._fixes.append(fix)
-        except Exception as e:  # noqa: BLE001 -- reported through .error, the loop sees no fixes
-            self.error = e
 
     def process(self, frame: Frame) -> DockFix | None:
         """One frame to a fix (None: no consistent markers or no pose for its time)."""

@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from auvdock.camera.detection_loop import DetectionLoop
 from auvdock.fly.units import sim_position_ned
 from auvdock.runtime.clock import Clock
 from auvdock.sensing.readings import Reading
@@ -129,8 +130,9 @@ class _FollowingDock:
         return np.asarray(self.truth.velocity(float(t) + self.clocked.offset_s), dtype=float)
 
 
-class CameraSensor:
-    """The vehicle's camera as the ``dock`` sensor (see the module docstring).
+class CameraSensor(DetectionLoop):
+    """The vehicle's camera as the ``dock`` sensor (see the module docstring); its thread's loop is every
+    camera path's (:class:`auvdock.camera.detection_loop.DetectionLoop`).
 
     Parameters
     ----------
@@ -250,26 +252,6 @@ class CameraSensor:
             pass
         if self._thread is not None and self._thread.is_alive():
             self.clock.join(self._thread, timeout=2.0)
-
-    def _loop(self) -> None:
-        last = -1
-        try:
-            while not self._stop.is_set():
-                frame = self.grabber.wait_new(last, timeout_s=0.2)
-                if frame is None:
-                    if self.grabber.error is not None:
-                        self.error = self.grabber.error
-                        return
-                    continue
-                last = frame.index
-                self.frames += 1
-                fix = self.process(frame)
-                if fix is not None:
-                    self.frames_with_fix += 1
-                    with self._lock:
-                        self._fixes.append(fix)
-        except Exception as e:  # noqa: BLE001 -- reported as an event; the filter sees no fixes
-            self.error = e
 
     def process(self, frame: Frame) -> _Fix | None:
         """One frame to a fix (None: no consistent markers, or before the loop's start)."""
