@@ -266,10 +266,15 @@ def test_vehicle_sim_stopped_by_a_signal_completes_its_truth_file(tmp_path, sign
         if after_banner_s is None:
             time.sleep(0.3)  # python is starting, auvdock importing
         else:
-            while "Ctrl-C to stop" not in seen:  # the banner: the simulator runs
+            while "Ctrl-C to stop" not in seen:  # the banner: the simulator is being built
                 line = proc.stdout.readline() if proc.stdout is not None else ""
                 assert line, seen
                 seen += line
+            if after_banner_s > 0:  # once it runs (its thread has created the truth file), however busy
+                waited = 0.0
+                while not truth.exists() and waited < 60.0 and proc.poll() is None:
+                    time.sleep(0.05)
+                    waited += 0.05
             time.sleep(after_banner_s)
         proc.send_signal(getattr(signal, signame))
         out, _ = proc.communicate(timeout=60)
