@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from auvdock.camera.video_in import Frame, LatestFrameGrabber
+    from auvdock.runtime.clock import Clock
 
 __all__ = ["DetectionLoop"]
 
@@ -24,6 +25,8 @@ class DetectionLoop:
     is kept in ``error`` (the control loop then sees no fixes and says so)."""
 
     grabber: LatestFrameGrabber
+    clock: Clock
+    _thread: threading.Thread | None
     _stop: threading.Event
     _lock: threading.Lock
     _fixes: collections.deque[Any]
@@ -33,6 +36,21 @@ class DetectionLoop:
 
     def process(self, frame: Frame) -> Any:  # pragma: no cover - each path's own
         raise NotImplementedError
+
+    def _start_thread(self, name: str) -> None:
+        """Start the loop in a thread of the clock (once)."""
+        if self._thread is None:
+            self._thread = self.clock.start_thread(self._loop, name=name)
+
+    def stop(self) -> None:
+        """Stop the thread and the frame source (never raises)."""
+        self._stop.set()
+        try:
+            self.grabber.stop()
+        except Exception:  # noqa: BLE001
+            pass
+        if self._thread is not None and self._thread.is_alive():
+            self.clock.join(self._thread, timeout=2.0)
 
     def _loop(self) -> None:
         last = -1

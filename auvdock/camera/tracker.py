@@ -291,19 +291,8 @@ class DockTracker(DetectionLoop):
         self.error: BaseException | None = None
 
     def start(self) -> DockTracker:
-        if self._thread is None:
-            self._thread = self.clock.start_thread(self._loop, name="auvdock-dock-tracker")
+        self._start_thread("auvdock-dock-tracker")
         return self
-
-    def stop(self) -> None:
-        """Stop the thread and the frame source (never raises)."""
-        self._stop.set()
-        try:
-            self.grabber.stop()
-        except Exception:  # noqa: BLE001
-            pass
-        if self._thread is not None and self._thread.is_alive():
-            self.clock.join(self._thread, timeout=2.0)
 
     def fixes(self) -> list[DockFix]:
         """The fixes made since the last call (oldest first)."""

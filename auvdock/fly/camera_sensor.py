@@ -126,9 +126,6 @@ class _FollowingDock:
     def position(self, t: float) -> np.ndarray:
         return np.asarray(self.truth.position(float(t) + self.clocked.offset_s), dtype=float)
 
-    def velocity(self, t: float) -> np.ndarray:
-        return np.asarray(self.truth.velocity(float(t) + self.clocked.offset_s), dtype=float)
-
 
 class CameraSensor(DetectionLoop):
     """The vehicle's camera as the ``dock`` sensor (see the module docstring); its thread's loop is every
@@ -239,19 +236,8 @@ class CameraSensor(DetectionLoop):
 
     # -- life -------------------------------------------------------------------------------------
     def start(self) -> None:
-        """Start taking frames and detecting."""
-        if self._thread is None:
-            self._thread = self.clock.start_thread(self._loop, name="auvdock-camera-sensor")
-
-    def stop(self) -> None:
-        """Stop the thread and the source (never raises)."""
-        self._stop.set()
-        try:
-            self.grabber.stop()
-        except Exception:  # noqa: BLE001
-            pass
-        if self._thread is not None and self._thread.is_alive():
-            self.clock.join(self._thread, timeout=2.0)
+        """Start taking frames and detecting (:meth:`stop` is the detection loop's)."""
+        self._start_thread("auvdock-camera-sensor")
 
     def process(self, frame: Frame) -> _Fix | None:
         """One frame to a fix (None: no consistent markers, or before the loop's start)."""

@@ -27,7 +27,6 @@ mission's stated errors, drawn from a stream of their own (:class:`DockTelemetry
 
 from __future__ import annotations
 
-import math
 from collections import deque
 from typing import TYPE_CHECKING, Any
 
@@ -102,8 +101,6 @@ class DockTelemetryOut:
                 noisy = value + float(s.std_m) * self.rng.standard_normal(3)
                 self._pending.append((ts + s.latency_s, odometry(ts, noisy, s.std_m)))
             self._next = ts + self.period
-            if not math.isfinite(self._next):
-                break
         while self._pending and self._pending[0][0] <= t + 1e-9:
             _, msg = self._pending.popleft()
             if self._mav is not None and not paused:
