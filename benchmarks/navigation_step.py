@@ -25,8 +25,9 @@ def main() -> None:
     args = ap.parse_args()
     if args.never_compile:
         os.environ["AUVDOCK_COMPILE"] = "never"
-    from auvdock.estimation.navigation_filter import NavigationFilter, WaveModel
+    from auvdock.estimation.navigation_filter import NavigationFilter
     from auvdock.estimation.settings import NavigationSettings
+    from auvdock.estimation.wave_model import WaveModel
     from auvdock.sensing import measurements as ms
     from auvdock.sensing.readings import Reading
     from auvdock.vehicle import load_vehicle

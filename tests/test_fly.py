@@ -280,7 +280,7 @@ def test_sigint_while_ending_is_noted_and_the_ending_completes(loop, tmp_path) -
     session = FlySession(load_mission(TANK), link, arm=True, out=tmp_path / "run.h5", timeout_s=1.0)
 
     def on_event(text: str) -> None:  # the link's events, as the session records them, plus Ctrl-C
-        session._event(text)
+        session.log.add(text)
         if text == "disarmed":
             signal.raise_signal(signal.SIGINT)
 

@@ -32,9 +32,9 @@ def plants(monkeypatch):
     seen: list[object] = []
     real = closed_loop.run_closed_loop
 
-    def spy(**kwargs):
-        seen.append(kwargs["plant"])
-        return real(**kwargs)
+    def spy(stages, **kwargs):
+        seen.append(stages.plant)
+        return real(stages, **kwargs)
 
     monkeypatch.setattr(closed_loop, "run_closed_loop", spy)
     return seen

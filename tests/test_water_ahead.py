@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from auvdock.estimation.navigation_filter import WaveModel
 from auvdock.estimation.water_ahead import WaterAhead
+from auvdock.estimation.wave_model import WaveModel
 from auvdock.world.constants import GRAVITY_M_S2
 from auvdock.world.waves import WaveComponents
 

@@ -11,9 +11,10 @@ import numpy as np
 import pytest
 
 from auvdock.config.mission import load_mission
-from auvdock.estimation.navigation_filter import NavigationFilter, WaveModel
+from auvdock.estimation.navigation_filter import NavigationFilter
 from auvdock.estimation.settings import NavigationSettings
 from auvdock.estimation.stage import wave_model
+from auvdock.estimation.wave_model import WaveModel
 from auvdock.sensing.settings import SensorSettings
 from auvdock.sensing.simulated import SensorSuite
 from auvdock.vehicle import load_vehicle

@@ -42,7 +42,8 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # pragma: no cover
-    from auvdock.camera.calibration import calibrate, find_corners, image_sources
+    from auvdock.camera.calibration import calibrate, find_corners
+    from auvdock.camera.image_files import image_sources
     from auvdock.camera.layout import (
         DICTIONARIES,
         Marker,
@@ -112,7 +113,7 @@ __all__ = [
 _LAZY: dict[str, str] = {
     "calibrate": "auvdock.camera.calibration",
     "find_corners": "auvdock.camera.calibration",
-    "image_sources": "auvdock.camera.calibration",
+    "image_sources": "auvdock.camera.image_files",
     "DICTIONARIES": "auvdock.camera.layout",
     "Marker": "auvdock.camera.layout",
     "MarkerLayout": "auvdock.camera.layout",

@@ -22,7 +22,7 @@ a video file (mp4, mkv, avi, ...)
     Decoded by PyAV; with ``realtime=True`` frames are released at the file's frame timing, as a live camera
     would give them, else as fast as they are decoded.
 a directory of images (or one image file)
-    Via :func:`auvdock.camera.calibration.image_sources` (sorted by name); ``image_fps`` paces them when
+    Via :func:`auvdock.camera.image_files.image_sources` (sorted by name); ``image_fps`` paces them when
     ``realtime``.
 
 Latency (measured on loopback, PyAV 18.1 / FFmpeg 8.1, x264 ``zerolatency``): a 320x240 frame is decoded one
@@ -623,7 +623,7 @@ class ImageFolderSource(_SourceBase):
     Parameters
     ----------
     path : str or Path
-        Read with :func:`auvdock.camera.calibration.image_sources`.
+        Read with :func:`auvdock.camera.image_files.image_sources`.
     fps : float or None
         Release rate when given (frames/s), else as fast as they are read.
     clock : Clock, optional
@@ -636,7 +636,7 @@ class ImageFolderSource(_SourceBase):
     """
 
     def __init__(self, path: str | Path, *, fps: float | None = None, clock: Clock | None = None) -> None:
-        from auvdock.camera.calibration import image_sources
+        from auvdock.camera.image_files import image_sources
 
         self.clock: Clock = wall_clock if clock is None else clock
         if fps is not None and not (math.isfinite(fps) and fps > 0):
@@ -736,7 +736,7 @@ def open_source(
         if path.is_dir():
             return ImageFolderSource(path, fps=image_fps if realtime else None, clock=clock)
         if path.is_file():
-            from auvdock.camera.calibration import IMAGE_SUFFIXES
+            from auvdock.camera.image_files import IMAGE_SUFFIXES
 
             if path.suffix.lower() in IMAGE_SUFFIXES:
                 return ImageFolderSource(path, fps=None, clock=clock)

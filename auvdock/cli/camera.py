@@ -176,8 +176,9 @@ def calibrate(
     every: int = typer.Option(1, "--every", min=1, help="Video file: use every Nth frame."),
 ) -> None:
     """OpenCV checkerboard calibration: writes the camera file missions point to (camera.calibration)."""
-    from auvdock.camera.calibration import NoVideoError, collect_views, image_sources
+    from auvdock.camera.calibration import NoVideoError, collect_views
     from auvdock.camera.calibration import calibrate as run_calibration
+    from auvdock.camera.image_files import image_sources
     from auvdock.camera.model import save_camera
 
     cols, rows = _parse_board(board)

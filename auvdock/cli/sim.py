@@ -33,7 +33,7 @@ from auvdock.controllers.registry import controller_names
 from auvdock.estimation.stage import FORECAST_HORIZONS_S, forecast_rmse_key
 
 if TYPE_CHECKING:
-    from auvdock.loop.simulation import Progress as SimProgress
+    from auvdock.loop.stages import Progress as SimProgress
 
 
 #: How a run that did not dock ended, in words (the outcome's ``reason``).

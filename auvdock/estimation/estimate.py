@@ -12,7 +12,7 @@ from auvdock.estimation.water_ahead import WaterAhead
 from auvdock.sensing.readings import FlowSensing
 
 if TYPE_CHECKING:
-    from auvdock.estimation.navigation_filter import WaveModel
+    from auvdock.estimation.wave_model import WaveModel
 
 __all__ = ["Estimate"]
 

@@ -45,8 +45,9 @@ import numpy as np
 
 from auvdock.estimation.delay import ThrustSchedule, mean_thrust
 from auvdock.estimation.estimate import Estimate
-from auvdock.estimation.navigation_filter import NavEstimate, NavigationFilter, WaveModel
+from auvdock.estimation.navigation_filter import NavEstimate, NavigationFilter
 from auvdock.estimation.settings import FORECAST_HORIZONS_S, NavigationSettings
+from auvdock.estimation.wave_model import WaveModel
 from auvdock.sensing.readings import FlowSensing, Readings
 from auvdock.vehicle.model import rk4
 from auvdock.vehicle.state import ANG, ATT, ETA, LIN, NX
@@ -90,7 +91,6 @@ WAVE_SERIES: dict[str, tuple[int, ...]] = {
     "estimated_wave_velocity_ned_m_s": (3,),
     "estimated_wave_velocity_std_m_s": (3,),
 }
-
 
 
 def forecast_rmse_key(horizon_s: float) -> str:

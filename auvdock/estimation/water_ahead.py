@@ -7,7 +7,7 @@ How a controller fills them is what it may know:
 * :meth:`WaterAhead.held` -- one velocity over the whole horizon, no acceleration: the paper's
   formulation (the flow held constant in {n}), and every controller without a wave estimate;
 * :meth:`WaterAhead.from_waves` -- the estimated slow current held, plus the navigation filter's
-  wave oscillators (:class:`auvdock.estimation.navigation_filter.WaveModel`) run forward on their
+  wave oscillators (:class:`auvdock.estimation.wave_model.WaveModel`) run forward on their
   own dynamics from their estimated velocity and rate: what a deployable controller knows;
 * :meth:`WaterAhead.from_sea` -- the true current plus the true sea's orbital velocity and
   acceleration at the vehicle's position: what Oracle is told (the realised sea, an idealisation it
@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from auvdock.estimation.navigation_filter import WaveModel
+    from auvdock.estimation.wave_model import WaveModel
     from auvdock.world.waves import WaveComponents
 
 __all__ = ["WaterAhead"]
@@ -78,7 +78,7 @@ class WaterAhead:
     ) -> WaterAhead:
         """The current ``current_ned`` (3,) held plus the wave oscillators' expected motion from
         ``wave_velocity_ned`` and ``wave_accel_ned`` (3, each) now, at ``k dt`` (s) for k = 0..steps-1
-        (:meth:`~auvdock.estimation.navigation_filter.WaveModel.propagate`)."""
+        (:meth:`~auvdock.estimation.wave_model.WaveModel.propagate`)."""
         w, a = model.propagate(wave_velocity_ned, wave_accel_ned, dt * np.arange(steps))
         return cls(np.asarray(current_ned, dtype=float).reshape(1, 3) + w, a)
 

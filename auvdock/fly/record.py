@@ -13,14 +13,15 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from auvdock.controllers.status import STATUS_NAMES
-from auvdock.loop.closed_loop import LoopRecorder, LoopResult
+from auvdock.loop.recorder import LoopRecorder
+from auvdock.loop.stages import LoopResult
 from auvdock.results.store import RunWriter, flush_steps
 from auvdock.runtime.interrupts import SigintDeferred
 
 if TYPE_CHECKING:
     from auvdock.config.mission import Mission
     from auvdock.loop.autopilot import Autopilot
-    from auvdock.loop.closed_loop import DockModel
+    from auvdock.loop.stages import DockModel
     from auvdock.vehicle import Vehicle
 
 __all__ = ["FlyRecorder"]

@@ -76,52 +76,41 @@ from auvdock.controllers.hold import DepthAttitudeHold
 from auvdock.controllers.registry import CONTROLLERS, split_controller
 from auvdock.controllers.status import STATUS_NAMES
 from auvdock.estimation.delay import DelayCompensation
-from auvdock.fly.camera import CAMERA_SERIES, CameraOpenError, CameraTracking
-from auvdock.fly.camera_sensor import (
-    CAMERA_SENSOR_SERIES,
-    FIX_RECORD,
-    SYNTHETIC_NEEDS,
-    CameraSensor,
-    RecordedCamera,
-)
+from auvdock.fly.camera import CameraOpenError, CameraTracking
+from auvdock.fly.camera_sensor import SYNTHETIC_NEEDS, CameraSensor, RecordedCamera
 from auvdock.fly.conformance import PARAMETER_GROUPS, check_parameters, describe, parameter_names
+from auvdock.fly.dock_clock import DockClock
 from auvdock.fly.dock_source import LandingTargetSource
-from auvdock.fly.dock_telemetry import DOCK_TELEMETRY_SERIES, DockTelemetryIn
+from auvdock.fly.dock_telemetry import DockTelemetryIn
+from auvdock.fly.events import EventLog
 from auvdock.fly.link import LinkError, MavlinkLink
-from auvdock.fly.link_health import LinkFigures, LinkHealth
 from auvdock.fly.plant import MavlinkPlant
+from auvdock.fly.readings import FlyReadings
 from auvdock.fly.record import FlyRecorder
 from auvdock.fly.safety import (
-    FailedSolves,
-    limit_reason,
-    link_problem,
     preflight_problems,
-    staleness,
-    takeover_reason,
 )
+from auvdock.fly.supervisor import FlySupervisor, vehicle_mode
 from auvdock.fly.telemetry import (
     PRESSURE_PARAMETERS,
     TELEMETRY_MESSAGES,
     TelemetrySensors,
     frame_turns,
-    geofence_violation,
 )
-from auvdock.fly.vehicle_state import VehicleState
+from auvdock.fly.vehicle_io import VehicleIO
 from auvdock.loop import closed_loop
 from auvdock.loop.autopilot import build_autopilot
-from auvdock.loop.closed_loop import LoopResult
-from auvdock.loop.closed_loop import Progress as LoopProgress
-from auvdock.loop.verdict import CaptureVerdict, MarginVerdict, Verdict
+from auvdock.loop.stages import LoopResult, Progress, Stages, Verdict
+from auvdock.loop.verdict import CaptureVerdict, DockingRule, MarginVerdict
 from auvdock.runtime.clock import Clock
 from auvdock.runtime.interrupts import SigintDeferred, interrupt_name
 from auvdock.runtime.stderr_capture import StderrCapture
-from auvdock.sensing.readings import Reading
 from auvdock.vehicle import Vehicle
 from auvdock.vehicle.actuators import ArduSubActuators
-from auvdock.vehicle.ardusub import MODES, NEUTRAL_CHANNELS
+from auvdock.vehicle.ardusub import MODES
 from auvdock.world.dock import ClockedDock, TrackedDock
 
-__all__ = ["FlySession", "FlyResult", "FlyAbortError", "FlyTakeoverError", "EXIT_CODES", "check_flyable"]
+__all__ = ["FlySession", "FlyResult", "FlyAbortError", "EXIT_CODES", "check_flyable"]
 
 #: ArduSub's VECTORED_6DOF frame (the BlueROV2 Heavy), the only one the channel mapping knows.
 N_THRUSTERS = 8
@@ -155,11 +144,6 @@ class FlyAbortError(RuntimeError):
     """The session was aborted for a safety reason (the message says which)."""
 
 
-class FlyTakeoverError(RuntimeError):
-    """Someone else took the vehicle: a disarm or a mode change fly did not command, or pilot
-    input from another ground station.  fly stops commanding at once and releases the channels."""
-
-
 @dataclass
 class FlyResult:
     """How a session ended."""
@@ -175,19 +159,9 @@ class FlyResult:
         return EXIT_CODES.get(self.reason, EXIT_CODES["aborted"])
 
 
-@dataclass
-class _Ending:
-    reason: str
-    message: str
-    docked: bool = False
-    contact: np.ndarray | None = None
-    t_end: float = 0.0
-    verdict: Verdict | None = None
-
-
-def _interrupted() -> _Ending:
+def _interrupted(t_end: float = 0.0) -> LoopResult:
     """The ending of a Ctrl-C (or a SIGTERM, which interrupts as one)."""
-    return _Ending("interrupted", f"interrupted ({interrupt_name()})")
+    return LoopResult("interrupted", f"interrupted ({interrupt_name()})", t_end)
 
 
 def _verdict_outcome(verdict: Verdict | None, vehicle_clock_offset_s: float) -> dict[str, Any]:
@@ -338,34 +312,29 @@ class FlySession:
         self.connect_timeout_s = connect_timeout_s
         # built whole: CasADi's argument type checks clear a KeyboardInterrupt raised in them, so
         # a Ctrl-C while the model and the controller are built is held back and raised after
+        #: The session's events (also in the result).
+        self.log = EventLog(self.clock)
         with SigintDeferred():
             self._build(mission, controller)
         self.dt = self.autopilot.dt
-        self.events: list[tuple[float, str]] = []
         self.camera: CameraTracking | None = None
         #: The dock camera as the navigation filter's sensor (sensors.dock_camera), once started (a replay:
         #: the flight's recorded fixes).
         self.camera_sensor: CameraSensor | RecordedCamera | None = None
-        self._t0 = self.clock.now()
         self._frame: Any = None
-        self._now_us = 0
-        self._failed_solves = FailedSolves(mission.fly.max_failed_solves)
         self._rec: FlyRecorder | None = None
+        self._plant: MavlinkPlant | None = None
         self._loop_t0 = time.perf_counter()
         self._we_armed = False
         self._handed_over_armed = False  # the vehicle was armed before fly armed it (a pilot's)
         self._t_end = 0.0
         self._progress: Any = None
-        self._on_event: Any = None
         self._sigint = _SigintLatch()
         self._refusals: list[str] = []
-        self.state = VehicleState()  # what the vehicle has said (parameters, acks, battery, texts)
         self._t_armed: float | None = None
-        self._next_rates = 0.0
-        self._rate_refreshes = 0
         self.hold = DepthAttitudeHold(self.vehicle, mission.fly.hold_bandwidth_rad_s)
-        self._stderr = StderrCapture(on_new=lambda line: self._event(f"solver says: {line}"))
-        self.link.on_event = self._event
+        self._stderr = StderrCapture(on_new=lambda line: self.log.add(f"solver says: {line}"))
+        self.link.on_event = self.log.add
 
     def _build(self, mission: Mission, controller: str | None) -> None:
         """The vehicle model, the dock (model or filter), the flow and the controller step."""
@@ -373,7 +342,7 @@ class FlySession:
         self.telemetry = TelemetrySensors(mission.sensors, mission.estimation)
         # the mission's dock motion on the vehicle's clock (its offset set as the control loop starts)
         self._model_dock = ClockedDock(mission.dock.build())
-        self._mission_zero_s: float | None = None  # mission t = 0 on the session's clock (s), once set
+        self.dock_clock = DockClock(self._model_dock, self.log)
         self.dock: ClockedDock | TrackedDock = self._model_dock
         self._landing: LandingTargetSource | None = None
         if mission.dock.source == "mavlink":
@@ -383,14 +352,15 @@ class FlySession:
         self.flow = mission.build_flow()
         self.autopilot = build_autopilot(mission, self.vehicle, self.dock, controller)
         self.actuators = ArduSubActuators(self.vehicle)  # what fly sends: ArduSub's channel path
-        self.link_health = LinkHealth()
-        self._next_timesync = -math.inf
-        self._link_bad_since: float | None = None
+        #: what goes to and comes from the vehicle: drained messages into what reads them, overrides out
+        self.io = VehicleIO(self.link, self.telemetry, self.log, mission.fly.timesync_period_s)
         if mission.fly.delay_compensation:
             self.autopilot.delay = DelayCompensation(self.vehicle)
         #: sensors.dock_telemetry: the dock's own motion record, received from its MAVLink system
         tel = mission.sensors.dock_telemetry
         self.dock_telemetry = DockTelemetryIn(tel) if mission.estimation == "filter" and tel.enabled else None
+        if self.dock_telemetry is not None:
+            self.io.feeds.append(self.dock_telemetry)
         if isinstance(self.dock, TrackedDock) and mission.dock.source == "mavlink":
             self._landing = LandingTargetSource(self.dock, self.telemetry, mission.fly.stale_abort_s)
 
@@ -404,8 +374,8 @@ class FlySession:
         "interrupted", at any moment (see the module docstring).
         """
         self._progress = progress
-        self._on_event = on_event
-        ending: _Ending | None = None
+        self.log.on_event = on_event
+        ending: LoopResult | None = None
         try:
             ending = self._fly()
         except KeyboardInterrupt:
@@ -428,7 +398,7 @@ class FlySession:
             )
         return result
 
-    def _fly(self) -> _Ending:
+    def _fly(self) -> LoopResult:
         """Everything up to the ending; safety aborts and Ctrl-C become the ending's reason."""
         try:
             self._connect()
@@ -441,14 +411,11 @@ class FlySession:
             self._open_results()
             return self._control_loop()
         except FlyAbortError as e:
-            self._event(f"abort: {e}")
-            return _Ending("aborted", str(e), t_end=self._t_end)
-        except FlyTakeoverError as e:
-            self._event(f"takeover: {e}")
-            return _Ending("takeover", str(e), t_end=self._t_end)
+            self.log.add(f"abort: {e}")
+            return LoopResult("aborted", str(e), self._t_end)
         except KeyboardInterrupt:
             ending = _interrupted()
-            self._event(ending.message)
+            self.log.add(ending.message)
             return ending
 
     # -- before the loop ------------------------------------------------------------------
@@ -464,20 +431,20 @@ class FlySession:
             msg_id = getattr(mavutil.mavlink, f"MAVLINK_MSG_ID_{name}")
             try:
                 result = self.link.request_rate(msg_id, rate)
-                self._event(f"rate {name} {rate:g} Hz: MAV_RESULT {result}")
+                self.log.add(f"rate {name} {rate:g} Hz: MAV_RESULT {result}")
             except LinkError as e:
-                self._event(f"rate {name}: {e}")
-            self._send_neutral()
+                self.log.add(f"rate {name}: {e}")
+            self.io.send_neutral()
         m = self.mission
         name = self.autopilot.name
         if m.estimation == "filter":
             pos = m.sensors.position.source
             what = "IMU, attitude, depth" + ("" if pos == "none" else f" and position ({pos})")
-            self._event(f"estimation: filter (the navigation filter on the {what})")
+            self.log.add(f"estimation: filter (the navigation filter on the {what})")
         else:
-            self._event("estimation: truth (the autopilot's ATTITUDE and LOCAL_POSITION_NED as the state)")
+            self.log.add("estimation: truth (the autopilot's ATTITUDE and LOCAL_POSITION_NED as the state)")
         if self.autopilot.reads_true_flow:
-            self._event(
+            self.log.add(
                 f"{name} reads the mission's flow model as its forecast of the current: "
                 f"{self.flow.describe()}"
             )
@@ -498,46 +465,6 @@ class FlySession:
         m = self.mission
         return m.estimation == "filter" and m.sensors.dock_camera.enabled and m.camera.source == "synthetic"
 
-    def _record_camera_fixes(self) -> None:
-        """The camera's fixes of this step, taken now and written to the tlog before the step's messages are
-        drained: replay finds them at the same step (:class:`auvdock.fly.camera_sensor.RecordedCamera`)."""
-        if self.camera_sensor is not None:
-            rows = self.camera_sensor.before_drain()
-            if rows:
-                self.link.record_rows(FIX_RECORD, rows)
-
-    def _take_telemetry(self, marker: str, value: int = 0) -> int:
-        """The messages received since the last call into :attr:`telemetry` and :attr:`state`
-        (:class:`auvdock.fly.vehicle_state.VehicleState`: parameters, acks, battery, the vehicle's
-        texts, another station flying); returns now (us, the tlog's clock).  The link marks the
-        moment in the tlog (for replay)."""
-        now_us, messages = self.link.drain(marker, value)
-        self.telemetry.feed(messages)
-        if self.dock_telemetry is not None:
-            self.dock_telemetry.feed(messages)
-        if self.camera_sensor is not None:
-            self.camera_sensor.feed(messages)
-        self.link_health.feed(messages, getattr(self.link, "target_system", 1))
-        link = self.link_health.figures()
-        rtt = max(link.rtt_s, link.rtt_latest_s)  # (NaN before a TIMESYNC answer)
-        self.state.round_trip_us = int(rtt * 1e6) if math.isfinite(rtt) else 0
-        self.state.clock_offset_s = link.offset_s
-        if self.clock.now() >= self._next_timesync:  # the round trip and the vehicle's clock
-            self._next_timesync = self.clock.now() + self.mission.fly.timesync_period_s
-            self.link.send_timesync(LinkHealth.request_ns(now_us * 1e-6))
-        for text in self.state.feed(messages, getattr(self.link, "target_system", 1)):
-            self._event(text)
-        return now_us
-
-    def _send_channels(self, channels: Any) -> None:
-        """RC overrides for channels 1..6, remembered (the RC_CHANNELS check compares with them)."""
-        ch = tuple(int(round(c)) for c in channels)
-        self.link.send_override(ch)
-        self.state.sent_channels(int(self.clock.time() * 1e6), ch)
-
-    def _send_neutral(self) -> None:
-        self._send_channels(NEUTRAL_CHANNELS)
-
     def _read_parameters(self) -> None:
         """Ask the vehicle for the parameters fly depends on; record them; keep the problems
         (:func:`auvdock.fly.conformance.check_parameters`) for the pre-flight check."""
@@ -549,23 +476,23 @@ class FlySession:
         next_ask = clock.now()
         while clock.now() < deadline:
             if clock.now() >= next_ask:  # a few at a time: ArduPilot queues only a few requests
-                missing = [n for n in names if n not in self.state.params]
+                missing = [n for n in names if n not in self.io.state.params]
                 self.link.request_parameters(missing[:PARAM_BATCH])
                 next_ask = clock.now() + PARAM_BATCH_PERIOD_S
-            self._send_neutral()
-            self._take_telemetry("auvd_param")
-            if all(any(n in self.state.params for n in g) for g in wanted) and (
-                all(n in self.state.params for n in PRESSURE_PARAMETERS) or clock.now() >= deadline - 1.0
+            self.io.send_neutral()
+            self.io.take("auvd_param")
+            if all(any(n in self.io.state.params for n in g) for g in wanted) and (
+                all(n in self.io.state.params for n in PRESSURE_PARAMETERS) or clock.now() >= deadline - 1.0
             ):
                 break
             clock.sleep(self.dt)
-        self._event(describe(self.state.params))
-        self._event(self.telemetry.set_pressure_reference(self.state.params))
+        self.log.add(describe(self.io.state.params))
+        self.log.add(self.telemetry.set_pressure_reference(self.io.state.params))
         self._refusals = check_parameters(
-            self.state.params, sysid=getattr(self.link, "sysid", 255), dt=self.dt, expected=fly.parameters
+            self.io.state.params, sysid=getattr(self.link, "sysid", 255), dt=self.dt, expected=fly.parameters
         )
         for problem in self._refusals:
-            self._event(f"parameter check: {problem}")
+            self.log.add(f"parameter check: {problem}")
 
     def _missing(self) -> list[str]:
         """What the session still waits for: the estimation's telemetry, a pressure reading (the
@@ -573,7 +500,7 @@ class FlySession:
         out = self.telemetry.missing()
         if self.telemetry.measured_depth() is None:
             out.append("SCALED_PRESSURE2 or SCALED_PRESSURE or VFR_HUD")
-        if self.mission.fly.min_battery_v > 0 and not self.state.battery_reported:
+        if self.mission.fly.min_battery_v > 0 and not self.io.state.battery_reported:
             out.append("SYS_STATUS (battery)")
         if self._synthetic_sensor and self.telemetry.latest("SIM_STATE")[0] is None:
             out.append(SYNTHETIC_NEEDS)
@@ -595,8 +522,8 @@ class FlySession:
         next_note = t0 + PROGRESS_EVERY_S
         next_ask = t0 + RATE_RETRY_S
         while clock.now() < deadline:
-            self._send_neutral()
-            now_us = self._take_telemetry("auvd_wait")
+            self.io.send_neutral()
+            now_us = self.io.take("auvd_wait")
             missing = self._missing()
             if missing and clock.now() >= next_ask:  # a rate request (or its ack) lost on the link: again
                 next_ask = clock.now() + RATE_RETRY_S
@@ -605,12 +532,12 @@ class FlySession:
                         self.link.send_rate(getattr(mavutil.mavlink, f"MAVLINK_MSG_ID_{name}"), rate)
             if not missing and self.telemetry.age_s(now_us) < 0.5:
                 if clock.now() - t0 >= PROGRESS_EVERY_S:
-                    self._event(f"telemetry complete after {clock.now() - t0:.0f} s")
+                    self.log.add(f"telemetry complete after {clock.now() - t0:.0f} s")
                 return
             if clock.now() >= next_note:
                 next_note += PROGRESS_EVERY_S
                 what = ", ".join(missing) if missing else "fresh telemetry"
-                self._event(f"waiting for {what}: {clock.now() - t0:.0f} s of {limit:g} s")
+                self.log.add(f"waiting for {what}: {clock.now() - t0:.0f} s of {limit:g} s")
             clock.sleep(self.dt)
         missing = self._missing() or ["fresh " + " and ".join(
             "/".join(g) for g in self.telemetry.required)]  # fmt: skip
@@ -632,14 +559,14 @@ class FlySession:
         def enough() -> bool:
             return min(tel.pose_readings(window), tel.depth_readings(window)) >= PREFLIGHT_MIN_READINGS
 
-        self._take_telemetry("auvd_frame")
+        self.io.take("auvd_frame")
         if not enough():
             self._await("auvd_frame", enough, window)
         turn = frame_turns(self.mission.fly.frame_heading, self.mission.sensors.position.source)
         self._frame = tel.set_frame(self.mission.start_state(), window, turn)
         n_pos, n_att = tel.frame_readings
         how = "" if turn else "; not turned: the positions are fixes in the position source's frame"
-        self._event(f"{tel.describe_frame()} (the mean of {n_pos} positions and {n_att} headings{how})")
+        self.log.add(f"{tel.describe_frame()} (the mean of {n_pos} positions and {n_att} headings{how})")
 
     def _start_camera(self) -> None:
         """The camera: sensors.dock_camera (a sensor of the navigation filter) or dock.source: camera
@@ -648,26 +575,28 @@ class FlySession:
         if m.estimation == "filter" and m.sensors.dock_camera.enabled:
             if getattr(self.link, "replaying", False):  # the flight's fixes, as recorded in its tlog
                 self.camera_sensor = RecordedCamera()
-                self._event(f"camera: {self.camera_sensor.description}")
+                self.io.feeds.append(self.camera_sensor)
+                self.log.add(f"camera: {self.camera_sensor.description}")
                 return
             try:
                 self.camera_sensor = CameraSensor(
-                    m, self.clock, self._model_dock, lambda: self.telemetry.latest("SIM_STATE"), self._event
+                    m, self.clock, self._model_dock, lambda: self.telemetry.latest("SIM_STATE"), self.log.add
                 )
             except (OSError, ValueError, RuntimeError) as e:
                 raise FlyAbortError(f"camera: {e}") from None
+            self.io.feeds.append(self.camera_sensor)
             self.camera_sensor.start()
-            self._event(f"camera: {self.camera_sensor.description}, a sensor of the navigation filter")
+            self.log.add(f"camera: {self.camera_sensor.description}, a sensor of the navigation filter")
             return
         if self.mission.dock.source != "camera":
             return
         assert isinstance(self.dock, TrackedDock)  # dock.source: camera tracks the dock (_build)
         try:
-            self.camera = CameraTracking(self.mission, self._model_dock, self.dock, self.clock, self._event)
+            self.camera = CameraTracking(self.mission, self._model_dock, self.dock, self.clock, self.log.add)
         except CameraOpenError as e:
             raise FlyAbortError(str(e)) from None
-        self.camera.start(self._state())
-        self._event(f"camera: {self.camera.description}")
+        self.camera.start(self.telemetry.state())
+        self.log.add(f"camera: {self.camera.description}")
 
     def _preflight(self) -> None:
         """Before arming, on measured values: the parameter checks, the pressure sensor's depth
@@ -682,17 +611,17 @@ class FlySession:
             self._refusals,
             self.telemetry.filtered_depth(window),
             np.asarray(self._model_dock.position(0.0), dtype=float),
-            self.state.battery_v,
-            self.link_health.figures(),
+            self.io.state.battery_v,
+            self.io.figures(),
         )
-        self._event(f"link: {self.link_health.figures().describe()}")
+        self.log.add(f"link: {self.io.figures().describe()}")
         if not problems:
-            self._event("pre-flight checks pass")
+            self.log.add("pre-flight checks pass")
             return
         for problem in problems:
-            self._event(f"pre-flight: {problem}")
+            self.log.add(f"pre-flight: {problem}")
         if not self.arm_vehicle:
-            self._event(f"dry run: arming would be refused ({len(problems)} problem(s))")
+            self.log.add(f"dry run: arming would be refused ({len(problems)} problem(s))")
             return
         more = "" if len(problems) == 1 else f" (and {len(problems) - 1} more, in the events)"
         raise FlyAbortError(f"refusing to arm: {problems[0]}{more}")
@@ -709,70 +638,82 @@ class FlySession:
             if resend is not None and clock.now() >= next_send:
                 resend()
                 next_send = clock.now() + every_s
-            self._send_neutral()
-            self._take_telemetry(marker)
+            self.io.send_neutral()
+            self.io.take(marker)
             if done():
                 return True
             clock.sleep(self.dt)
         return False
 
-    def _vehicle_mode(self) -> tuple[bool, int | None]:
-        """(armed, custom_mode) of the vehicle's latest HEARTBEAT ((False, None) before one)."""
-        hb, _ = self.telemetry.latest("HEARTBEAT")
-        if hb is None:
-            return False, None
-        return bool(hb.base_mode & mavutil.mavlink.MAV_MODE_FLAG_SAFETY_ARMED), int(hb.custom_mode)
-
     def _arm(self) -> None:
         """--arm: MANUAL mode, then arm, retried every ARM_RETRY_S while the vehicle refuses
         (its pre-arm reasons appear as events) until ``fly.arm_timeout_s``; else a dry run."""
         if not self.arm_vehicle:
-            armed = " (the vehicle is armed, not by fly)" if self._vehicle_mode()[0] else ""
-            self._event(f"dry run: not arming, sending neutral overrides only{armed}")
+            armed = " (the vehicle is armed, not by fly)" if vehicle_mode(self.io)[0] else ""
+            self.log.add(f"dry run: not arming, sending neutral overrides only{armed}")
             self._t_armed = self.clock.now()
             return
         manual = MODES["MANUAL"]
-        if not self._await("auvd_mode", lambda: self._vehicle_mode()[1] == manual, MODE_TIMEOUT_S,
+        if not self._await("auvd_mode", lambda: vehicle_mode(self.io)[1] == manual, MODE_TIMEOUT_S,
                            resend=lambda: self.link.send_mode("MANUAL")):  # fmt: skip
             raise FlyAbortError(
                 f"vehicle did not change to MANUAL (mode {manual}) within {MODE_TIMEOUT_S:g} s"
             )
-        self._event("mode MANUAL")
-        if self._vehicle_mode()[0]:  # handed over armed: fly did not arm it, and will not disarm it
+        self.log.add("mode MANUAL")
+        if vehicle_mode(self.io)[0]:  # handed over armed: fly did not arm it, and will not disarm it
             self._handed_over_armed = True
             self._t_armed = self.clock.now()
-            self._event(
+            self.log.add(
                 "taking over an armed vehicle: it was armed before fly (not by fly), and is left armed at "
                 "the end, overrides released"
             )
             return
         self._we_armed = True  # from the arm command on, every ending disarms (Ctrl-C before its ack too)
         limit = self.mission.fly.arm_timeout_s
-        self._event("arming (waits for the vehicle's pre-arm checks)")
-        if not self._await("auvd_arm", lambda: self._vehicle_mode()[0], limit,
+        self.log.add("arming (waits for the vehicle's pre-arm checks)")
+        if not self._await("auvd_arm", lambda: vehicle_mode(self.io)[0], limit,
                            resend=lambda: self.link.send_arm(True), every_s=ARM_RETRY_S):  # fmt: skip
             arm = mavutil.mavlink.MAV_CMD_COMPONENT_ARM_DISARM
-            results = [r for c, r in self.state.acks if c == arm]
-            why = self.state.last_arm_text or (f"MAV_RESULT {results[-1]}" if results else "no COMMAND_ACK")
+            results = [r for c, r in self.io.state.acks if c == arm]
+            said = f"MAV_RESULT {results[-1]}" if results else "no COMMAND_ACK"
+            why = self.io.state.last_arm_text or said
             raise FlyAbortError(f"arming refused for {limit:g} s (fly.arm_timeout_s): {why}")
         self._t_armed = self.clock.now()
-        self._event("armed")
+        self.log.add("armed")
 
     def _open_results(self) -> None:
+        """The plant and the readings of this flight, and its results file."""
         m = self.mission
-        camera_series = CAMERA_SERIES if self.camera is not None else {}
-        if self.camera_sensor is not None:
-            camera_series = CAMERA_SENSOR_SERIES
-        if self.dock_telemetry is not None:
-            camera_series = {**camera_series, **DOCK_TELEMETRY_SERIES}
-        self._plant = MavlinkPlant(self, camera_series)
+        self._plant = MavlinkPlant(
+            self.io,
+            self.vehicle,
+            self.flow,
+            self.dock_clock,
+            self._streams(),
+            m.fly.rates_refresh_s,
+            self.dt,
+            arm=self.arm_vehicle,
+            camera_sensor=self.camera_sensor,
+        )
+        self._readings = FlyReadings(
+            self.io,
+            m,
+            self.flow,
+            self.dock_clock,
+            self._frame,
+            delay=self.autopilot.delay,
+            camera=self.camera,
+            camera_sensor=self.camera_sensor,
+            dock_telemetry=self.dock_telemetry,
+            landing=self._landing,
+        )
         self._rec = FlyRecorder(
             self.out,
             mission=m,
             autopilot=self.autopilot,
             vehicle=self.vehicle,
             dock=self.dock,
-            plant_columns=self._plant.columns,
+            plant_columns={**self._plant.columns, **self._readings.columns},
             attrs={
                 "tolerance_m": m.docking.tolerance_m,
                 "timeout_s": self.timeout_s,
@@ -794,15 +735,15 @@ class FlySession:
         self._loop_t0 = time.perf_counter()
 
     # -- the loop -------------------------------------------------------------------------
-    def _control_loop(self) -> _Ending:
+    def _control_loop(self) -> LoopResult:
         """The one closed loop (:func:`auvdock.loop.closed_loop.run_closed_loop`) on this vehicle:
-        a step every dt on the session's clock until docked, the timeout or an abort."""
-        assert self._rec is not None
-        progress = None
-        if self._progress is not None:
-            user = self._progress
+        a step every dt on the session's clock until docked, the timeout or an ending."""
+        assert self._rec is not None and self._plant is not None
+        user = self._progress
 
-            def progress(p: LoopProgress) -> None:
+        def progress(p: Progress) -> None:
+            self._t_end = p.t  # the last controller step (an ending from outside the loop's stages)
+            if user is not None:
                 user(p.t, p.distance_m, STATUS_NAMES.get(p.status, str(p.status)))
 
         @contextlib.contextmanager
@@ -810,28 +751,29 @@ class FlySession:
             with self._stderr.capture():
                 yield
 
+        supervisor = FlySupervisor(
+            self.io,
+            self.mission.fly,
+            self.timeout_s,
+            in_control=self._we_armed or self._handed_over_armed,
+            t_armed=self._t_armed,
+        )
+        stages = Stages(
+            self._plant,
+            self._readings,
+            supervisor,
+            self.autopilot,
+            self.actuators,
+            DockingRule(self.dock, self.mission.docking.tolerance_m, self._verdict()),
+            self._rec.loop,
+            self.hold,
+        )
         result = closed_loop.run_closed_loop(
-            plant=self._plant,
-            autopilot=self.autopilot,
-            actuators=self.actuators,
-            recorder=self._rec.loop,
-            dock=self.dock,
-            tolerance_m=self.mission.docking.tolerance_m,
-            timeout_s=self.timeout_s,
-            hold=self.hold,
-            progress=progress,
-            on_event=self._event,
-            control_guard=quiet,
-            verdict=self._verdict(),
+            stages, timeout_s=self.timeout_s, progress=progress, on_event=self.log.add, control_guard=quiet
         )
-        return _Ending(
-            result.reason,
-            result.message,
-            docked=result.docked,
-            contact=result.contact,
-            t_end=result.t_end,
-            verdict=result.verdict,
-        )
+        if result.reason in ("aborted", "takeover"):
+            self.log.add(f"{'abort' if result.reason == 'aborted' else 'takeover'}: {result.message}")
+        return result
 
     def _verdict(self) -> MarginVerdict | CaptureVerdict:
         """The docking rule on the estimate (:mod:`auvdock.loop.verdict`): the point rule, or with
@@ -847,180 +789,8 @@ class FlySession:
         contact = m.build_contact(self._model_dock.dock)
         return point if contact is None else CaptureVerdict(point, contact)
 
-    # -- safety checks --------------------------------------------------------------------
-    def _check_takeover(self) -> None:
-        """Someone else flies (:func:`auvdock.fly.safety.takeover_reason`): raises FlyTakeoverError."""
-        armed, mode = self._vehicle_mode()
-        in_control = self._we_armed or self._handed_over_armed  # flying an armed vehicle
-        why = takeover_reason(
-            self.state.foreign, in_control, armed, mode, self._vehicle_text_since_arming()
-        )
-        if why is not None:
-            raise FlyTakeoverError(why)
-
-    def _vehicle_text_since_arming(self) -> str:
-        """The vehicle's latest STATUSTEXT since arming ("" if none)."""
-        for _, text in reversed(self.events):
-            if text == "armed":
-                return ""
-            if text.startswith("vehicle: "):
-                return text[len("vehicle: ") :]
-        return ""
-
-    def _check_limits(self) -> None:
-        """The battery floor and the time limit since arming (:func:`auvdock.fly.safety.limit_reason`)."""
-        since = None if self._t_armed is None else self.clock.now() - self._t_armed
-        why = limit_reason(self.mission.fly, self.state.battery_v, since, self.timeout_s)
-        if why is not None:
-            raise FlyAbortError(why)
-
-    def _refresh_rates(self) -> None:
-        """Re-request the telemetry rates every ``fly.rates_refresh_s`` (not waited for): a ground
-        station (QGroundControl, Cockpit) may have reset them."""
-        now = self.clock.now()
-        if now < self._next_rates:
-            return
-        if self._next_rates > 0:
-            for name, rate in self._streams().items():
-                self.link.send_rate(getattr(mavutil.mavlink, f"MAVLINK_MSG_ID_{name}"), rate)
-            self._rate_refreshes += 1
-        self._next_rates = now + self.mission.fly.rates_refresh_s
-
-    def _check_telemetry(self) -> bool:
-        """Stale telemetry: True (no control step on old readings; the loop sends neutral); lost: abort."""
-        stale = self._stale()
-        fly = self.mission.fly
-        action = staleness(fly, stale)
-        if action == "abort":
-            names = [n for n, age in self.telemetry.ages(self._now_us).items() if age > fly.stale_abort_s]
-            raise FlyAbortError(f"telemetry lost: no {', '.join(names)} for {stale:.1f} s")
-        if action == "neutral":
-            if not self.events or not self.events[-1][1].startswith("telemetry stale"):
-                self._event(f"telemetry stale ({stale:.2f} s): neutral")
-            return True
-        return False
-
-    def _check_solves(self, status: int) -> None:
-        """Abort after ``fly.max_failed_solves`` steps in a row without a converged solve."""
-        why = self._failed_solves.update(status)
-        if why is not None:
-            raise FlyAbortError(why)
-
-    def _check_geofence(self) -> None:
-        """The geofence on measured values: the pressure sensor's depth, the vehicle's own
-        position estimate's distance from the start.  A pressure reading older than
-        ``fly.stale_abort_s`` aborts too (the depth limits cannot act without it)."""
-        measured = self.telemetry.measured_depth()
-        if measured is None:
-            raise FlyAbortError("telemetry lost: no pressure reading (the depth limits need it)")
-        depth, source = measured
-        _, stamp = self.telemetry.latest(source)
-        age = math.inf if stamp is None else (self._now_us - stamp) * 1e-6
-        if age > self.mission.fly.stale_abort_s:
-            raise FlyAbortError(f"telemetry lost: no {source} for {age:.1f} s (the depth limits need it)")
-        fence = geofence_violation(self.mission.fly.geofence, depth, self.telemetry.distance_from_start())
-        if fence is not None:
-            raise FlyAbortError(f"{fence} ({source})" if "depth" in fence else fence)
-
-    def _dock_motion(self) -> tuple[list[Reading], float]:
-        """The dock's new telemetry as ``dock_motion`` readings on the mission's clock, and its age (s);
-        none for longer than ``fly.stale_abort_s``: abort (the forecast would run on an old record)."""
-        assert self.dock_telemetry is not None
-        age = self.dock_telemetry.age_s(self._now_us)
-        if age > self.mission.fly.stale_abort_s:
-            raise FlyAbortError(
-                f"the dock's telemetry lost: no ODOMETRY from system {self.dock_telemetry.system} for "
-                f"{age:.1f} s (fly.stale_abort_s)"
-            )
-        return self.dock_telemetry.readings(self._model_dock.offset_s), age
-
-    def _camera_step(self, t: float) -> tuple[bool, dict[str, np.ndarray]]:
-        """The camera's fixes into the dock filter: (may steer?, series); aborts when lost."""
-        assert self.camera is not None
-        state, series = self.camera.step(t)
-        if state == "lost":
-            raise FlyAbortError(self.events[-1][1] if self.events else "camera: dock lost")
-        return state == "tracking", series
-
-    def _set_dock_clock(self, t: float) -> None:
-        """The mission's dock motion runs on the vehicle's clock (:class:`auvdock.world.dock.ClockedDock`):
-        mission time ``t`` (s) is now; the vehicle's time now is the session's plus the clocks' offset
-        measured with TIMESYNC (:class:`auvdock.fly.link_health.LinkHealth`), or without an answer the
-        newest ATTITUDE's ``time_boot_ms`` plus that message's age on arrival (its delivery delay not
-        counted: over a 250 ms link the dock would be a quarter second out of phase)."""
-        att, stamp = self.telemetry.latest("ATTITUDE")
-        self._mission_zero_s = self._now_us * 1e-6 - t  # mission t = 0 on the session's clock
-        offset = self.link_health.figures().offset_s
-        if math.isfinite(offset):  # the vehicle's clock now, from TIMESYNC (not the newest ATTITUDE's)
-            vehicle_now = self._now_us * 1e-6 + offset
-        elif att is not None and stamp is not None:
-            vehicle_now = float(att.time_boot_ms) * 1e-3 + max(0, self._now_us - stamp) * 1e-6
-        else:
-            return
-        self._model_dock.offset_s = vehicle_now - t
-        offset = vehicle_now - t
-        self._event(f"dock: its motion on the vehicle's clock (mission t = 0 at vehicle time {offset:.3f} s)")
-
-    def _follow_vehicle_clock(self, offset_s: float) -> None:
-        """Keep the dock's clock on the link's estimate of the vehicle's clock (``offset_s``, s: the
-        vehicle's minus the session's, :class:`auvdock.fly.link_health.LinkFigures`): the readings are
-        stamped with the same estimate, so when a less-queued TIMESYNC answer refines it, readings and
-        dock move together (the relative position, which the verdict judges, does not jump)."""
-        zero = self._mission_zero_s
-        if zero is not None and math.isfinite(offset_s):
-            self._model_dock.offset_s = zero + offset_s
-
-    def _check_link(self, link: LinkFigures) -> bool:
-        """The link within its limits (:func:`auvdock.fly.safety.link_problem`)?  Beyond them: False (the
-        step holds neutral), an event when the hold starts and ends, and FlyAbortError once it has lasted
-        ``fly.link_hold_s``."""
-        why = link_problem(self.mission.fly, link)
-        now = self.clock.now()
-        if why is None:
-            if self._link_bad_since is not None:
-                self._event(f"link recovered ({link.describe()}): flying again")
-                self._link_bad_since = None
-            return True
-        if self._link_bad_since is None:
-            self._link_bad_since = now
-            self._event(f"{why}: holding (neutral) for up to {self.mission.fly.link_hold_s:g} s")
-        elif now - self._link_bad_since >= self.mission.fly.link_hold_s:
-            raise FlyAbortError(f"{why} for {now - self._link_bad_since:.1f} s (fly.link_hold_s)")
-        return False
-
-    def _check_landing_target(self, t: float, x: np.ndarray) -> None:
-        """dock.source: mavlink -- re-anchor the dock; abort without (or after losing) LANDING_TARGET."""
-        assert self._landing is not None
-        why = self._landing.lost(t, x, self._now_us, self._frame)
-        if why is not None:
-            raise FlyAbortError(why)
-
-    # -- telemetry --------------------------------------------------------------------------
-    def _stale(self) -> float:
-        """Age (s) of the stalest telemetry the estimation needs, at this step's drain."""
-        return self.telemetry.age_s(self._now_us)
-
-    def _state(self) -> np.ndarray:
-        """The autopilot's estimate of the state (12,) in the mission frame (latest telemetry)."""
-        return self.telemetry.state()
-
-    def _telemetry(self) -> dict[str, Any]:
-        ages = []
-        for mtype in ("ATTITUDE", "LOCAL_POSITION_NED"):
-            _, stamp = self.telemetry.latest(mtype)
-            ages.append(np.inf if stamp is None else (self._now_us - stamp) * 1e-6)
-        hb, _ = self.telemetry.latest("HEARTBEAT")
-        armed = hb is not None and bool(hb.base_mode & mavutil.mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
-        return {"age_s": np.array(ages), "armed": armed}
-
-    def _event(self, text: str) -> None:
-        item = (self.clock.now() - self._t0, text)
-        self.events.append(item)
-        if self._on_event is not None:
-            self._on_event(*item)
-
     # -- the ending -----------------------------------------------------------------------
-    def _finish(self, ending: _Ending | None) -> FlyResult:
+    def _finish(self, ending: LoopResult | None) -> FlyResult:
         """The one ending (``None``: an unexpected error, which propagates after it).
 
         Neutral overrides, override release, disarm if we armed, link closed, outcome
@@ -1029,49 +799,43 @@ class FlySession:
         self._sigint.install()
         self._shutdown(takeover=ending is not None and ending.reason == "takeover")
         if self._stderr.lines:
-            self._event(f"solver output: {self._stderr.summary()}")
+            self.log.add(f"solver output: {self._stderr.summary()}")
         nav = getattr(self.autopilot, "navigation", None)
         gated = getattr(getattr(nav, "filter", None), "gated", None)
         if gated:  # readings the navigation filter left out as implausible: is a sensor's std right?
             what = ", ".join(f"{k} {n}" for k, n in sorted(gated.items()))
-            self._event(f"navigation: readings left out as implausible (beyond 4.9 sigma): {what}")
-        if self._rate_refreshes:
-            self._event(f"telemetry rates re-requested {self._rate_refreshes} time(s)")
+            self.log.add(f"navigation: readings left out as implausible (beyond 4.9 sigma): {what}")
+        refreshes = 0 if self._plant is None else self._plant.rate_refreshes
+        if refreshes:
+            self.log.add(f"telemetry rates re-requested {refreshes} time(s)")
         rec = self._rec
         if ending is None:
             if rec is not None and rec.writer is not None:
                 rec.close()
-            return FlyResult("aborted", "error", {}, None, list(self.events))
+            return FlyResult("aborted", "error", {}, None, list(self.log.items))
         if self._sigint.hit and ending.reason != "interrupted":
             said = f"interrupted ({interrupt_name()}) while ending: {ending.message}"
-            ending = _Ending("interrupted", said)
-        self._event(f"end: {ending.reason}: {ending.message}")
+            ending = LoopResult("interrupted", said, ending.t_end)
+        self.log.add(f"end: {ending.reason}: {ending.message}")
         outcome: dict[str, Any] = {}
         if rec is not None and rec.writer is not None:
-            result = LoopResult(
-                ending.reason,
-                ending.message,
-                ending.t_end,
-                ending.docked,
-                ending.contact,
-                time.perf_counter() - self._loop_t0,
-            )
+            result = dataclasses.replace(ending, wall_time_s=time.perf_counter() - self._loop_t0)
             outcome = rec.outcome(
                 ending.reason,
                 ending.message,
                 result=result,
                 extra={
-                    "events_json": rec.events_json(self.events),
+                    "events_json": rec.events_json(self.log.items),
                     "armed_by_us": self._we_armed,
                     "handed_over_armed": self._handed_over_armed,
                     "solver_stderr_lines": self._stderr.lines,
-                    "vehicle_parameters_json": json.dumps(self.state.params, sort_keys=True),
+                    "vehicle_parameters_json": json.dumps(self.io.state.params, sort_keys=True),
                     **_verdict_outcome(ending.verdict, self._model_dock.offset_s),
                 },
             )
             rec.finish(outcome)
         path = self.out if rec is not None and rec.writer is not None else None
-        return FlyResult(ending.reason, ending.message, outcome, path, list(self.events))
+        return FlyResult(ending.reason, ending.message, outcome, path, list(self.log.items))
 
     def _shutdown(self, takeover: bool = False) -> None:
         """Camera stopped, neutral, overrides released, disarmed if we armed, link closed.  Never raises.
@@ -1098,9 +862,9 @@ class FlySession:
             try:
                 self.link.disarm()
             except Exception:  # noqa: BLE001
-                self._event("disarm failed")
+                self.log.add("disarm failed")
         elif self._handed_over_armed and not takeover:
-            self._event("left armed, as it was handed over: fly disarms only a vehicle it armed")
+            self.log.add("left armed, as it was handed over: fly disarms only a vehicle it armed")
         try:
             self.link.close()
         except Exception:  # noqa: BLE001

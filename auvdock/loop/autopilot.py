@@ -36,6 +36,7 @@ from auvdock.vehicle import Vehicle
 if TYPE_CHECKING:
     from auvdock.estimation.delay import DelayCompensation, ThrustSchedule
     from auvdock.estimation.estimate import Estimate
+    from auvdock.loop.stages import LoopResult
     from auvdock.world.dock import DockMotion
 
 __all__ = ["Autopilot", "build_autopilot", "knows_dock_from_telemetry"]
@@ -159,6 +160,15 @@ class Autopilot:
         self.u_applied = np.asarray(thrust, dtype=float).copy()
         if self.delay is not None and self._t_last is not None:
             self.delay.history.sent(self._t_last, self.u_applied)
+
+    def finish(self, result: LoopResult) -> None:
+        """The run ended with ``result``: with a dock camera, the guidance's record of its losses of the
+        dock and its first fix go into the result."""
+        g = self.guidance
+        if g.camera:
+            g.finish(result.t_end, result.reason)
+            result.lost_tracks = list(g.events)
+            result.dock_first_seen_s = g.first_fix_t
 
     def step(self, readings: Readings) -> ControlOutput:
         """One control step: estimate from the readings, solve, and return the thrust to hold

@@ -1,11 +1,12 @@
-"""The plant of a simulated run: the truth model, the sea and the simulated sensors.
+"""The plant and the readings of a simulated run: the truth model, the sea and the simulated sensors.
 
-:class:`SimulatedPlant` is the :class:`~auvdock.loop.closed_loop.Plant` of ``sim``,
-``compare`` and ``sweep``: the true state stepped by :class:`auvdock.world.plant.TruthPlant`
-(RK4 through the mission's flow field and sea, the applied thrust held over the period),
-observed through :class:`auvdock.sensing.simulated.SimulatedSensors`.  The state it reports to
+:class:`SimulatedPlant` is the :class:`~auvdock.loop.stages.Plant` of ``sim``, ``compare`` and
+``sweep``: the true state stepped by :class:`auvdock.world.plant.TruthPlant` (RK4 through the
+mission's flow field and sea, the applied thrust held over the period).  The state it reports to
 the loop (recorded, and judged by the docking rule) is the truth; the water velocity it reports
-is the current plus the waves' orbital velocity at the vehicle.
+is the current plus the waves' orbital velocity at the vehicle.  :class:`SimulatedReadings` (the
+:class:`~auvdock.loop.stages.ReadingsStage`) reads it through
+:class:`auvdock.sensing.simulated.SimulatedSensors`.
 
 In a sea it records, per step (:attr:`SimulatedPlant.columns`): the orbital velocity and the
 water's acceleration at the vehicle, the sea's elevation at the dock, and the dock's 6-DOF pose
@@ -18,7 +19,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from auvdock.loop.closed_loop import Applied, Observation
+from auvdock.loop.stages import Applied, Observation, Sensed, TruthSample
 from auvdock.sensing.simulated import SimulatedSensors
 from auvdock.vehicle.actuators import ActuatorCommand
 from auvdock.vehicle.state import POS
@@ -27,7 +28,6 @@ from auvdock.world.plant import TruthPlant
 
 if TYPE_CHECKING:
     from auvdock.config.mission import Mission
-    from auvdock.controllers.base import ControlOutput
     from auvdock.vehicle import Vehicle
     from auvdock.world.dock import HeaveDock
     from auvdock.world.dock_body import CaptureLimits, DockBody, HullBox
@@ -44,7 +44,7 @@ SEA_COLUMNS: dict[str, tuple[int, ...]] = {
     "dock_twist": (6,),
 }
 
-__all__ = ["SimulatedPlant"]
+__all__ = ["SimulatedPlant", "SimulatedReadings"]
 
 
 class SimulatedPlant:
@@ -105,14 +105,6 @@ class SimulatedPlant:
             self.columns.update(SEA_COLUMNS)
         if contact is not None:
             self.columns["nose_dock_m"] = (3,)
-        camera_fix = None
-        if mission.estimation == "filter" and mission.sensors.dock_camera.enabled:
-            if dock is None:
-                raise ValueError("sensors.dock_camera: the simulated camera needs the dock")
-            camera_fix = mission.build_camera_fix()
-        self.sensors = SimulatedSensors(
-            mission.sensors, mission.estimation, vehicle, mission.seed, camera_fix=camera_fix, dock=dock
-        )
         self._zero = np.zeros(vehicle.n_thrusters)
         self.start()
 
@@ -131,7 +123,7 @@ class SimulatedPlant:
         """The truth at ``t`` (s) and what the sensors read of it."""
         x = self.truth.state
         if not np.all(np.isfinite(x)):
-            return Observation(t, x, np.full(3, np.nan), None)
+            return Observation(t, x)
         v_c = self.flow.velocity(x[POS], t)
         columns: dict[str, np.ndarray] = {}
         path_rate = water_accel = None
@@ -156,8 +148,8 @@ class SimulatedPlant:
                 dock_heading_rad=self.dock.heading_rad,
             )
             columns["nose_dock_m"] = contact.nose_dock_m
-        readings = self.sensors.read(t, x, self._x_prev, self.dt, self._applied, v_c, path_rate, water_accel)
-        return Observation(t, x, v_c, readings, true_flow_ned=v_c, columns=columns, contact=contact)
+        truth = TruthSample(self._x_prev, self._applied, path_rate, water_accel)
+        return Observation(t, x, v_c, columns, contact, truth)
 
     def apply(self, t: float, command: ActuatorCommand) -> Applied:
         """Hold the thrust the actuator path produces over the coming period."""
@@ -170,5 +162,51 @@ class SimulatedPlant:
         x = self.truth.step(self._applied, t)
         return bool(np.all(np.isfinite(x)))
 
-    def after_step(self, out: ControlOutput) -> None:
-        """Nothing to monitor in simulation."""
+
+class SimulatedReadings:
+    """What the simulated sensors read of the truth (:class:`auvdock.sensing.simulated.SimulatedSensors`).
+
+    Parameters
+    ----------
+    mission : Mission
+        Sensors, estimation, seed; with ``sensors.dock_camera`` the camera's fix model
+        (:meth:`~auvdock.config.mission.Mission.build_camera_fix`).
+    vehicle : Vehicle
+        The one model.
+    dt : float
+        Control period, s.
+    dock : HeaveDock or WecDock, optional
+        The true dock (the camera and the dock's telemetry read it).
+    """
+
+    columns: dict[str, tuple[int, ...]] = {}
+
+    def __init__(
+        self, mission: Mission, vehicle: Vehicle, dt: float, dock: HeaveDock | WecDock | None = None
+    ) -> None:
+        self.dt = float(dt)
+        camera_fix = None
+        if mission.estimation == "filter" and mission.sensors.dock_camera.enabled:
+            if dock is None:
+                raise ValueError("sensors.dock_camera: the simulated camera needs the dock")
+            camera_fix = mission.build_camera_fix()
+        self.sensors = SimulatedSensors(
+            mission.sensors, mission.estimation, vehicle, mission.seed, camera_fix=camera_fix, dock=dock
+        )
+
+    def read(self, obs: Observation) -> Sensed:
+        """The sensors' readings of the truth at ``obs.t``."""
+        truth = obs.truth
+        if truth is None or obs.true_water_ned is None:
+            raise ValueError("simulated readings need a simulated plant's truth")
+        readings = self.sensors.read(
+            obs.t,
+            obs.state,
+            truth.state_prev,
+            self.dt,
+            truth.applied_N,
+            obs.true_water_ned,
+            truth.path_rate,
+            truth.water_accel,
+        )
+        return Sensed(readings)

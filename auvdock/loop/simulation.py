@@ -33,14 +33,16 @@ from auvdock.controllers.hold import DepthAttitudeHold
 from auvdock.controllers.status import STATUS_NAMES
 from auvdock.loop import closed_loop
 from auvdock.loop.autopilot import Autopilot, build_autopilot
-from auvdock.loop.closed_loop import LoopRecorder, Progress, run_outcome
-from auvdock.loop.simulated_plant import SimulatedPlant
+from auvdock.loop.recorder import LoopRecorder
+from auvdock.loop.simulated_plant import SimulatedPlant, SimulatedReadings
+from auvdock.loop.stages import Progress, Stages, Unsupervised
+from auvdock.loop.verdict import DockingRule
 from auvdock.results.run import MemoryRecorder, Run
 from auvdock.results.store import RunWriter, flush_steps
 from auvdock.runtime.interrupts import SigintDeferred
 from auvdock.vehicle.actuators import ACTUATOR_PATHS, build_actuators
 
-__all__ = ["Progress", "RunSummary", "simulate", "run_outcome", "idealisations"]
+__all__ = ["RunSummary", "simulate", "idealisations"]
 
 
 def idealisations(mission: Mission, reads_true_flow: bool) -> list[str]:
@@ -149,6 +151,7 @@ def simulate(
         ap = autopilot or build_autopilot(mission, vehicle, chart, controller)
         contact = mission.build_contact(dock)
         plant = SimulatedPlant(mission, vehicle, flow, ap.dt, sea=sea, dock=dock, contact=contact)
+        readings = SimulatedReadings(mission, vehicle, ap.dt, dock)
         actuators = build_actuators(mission.simulation.actuators, vehicle)
     setup_s = time.perf_counter() - t_setup if autopilot is None else ap.build_time_s
     ap.reset()
@@ -200,17 +203,17 @@ def simulate(
                 writer.write_sea(sea.to_arrays(), sea.attributes())
     recorder.sinks = [s for s in (writer, memory) if s is not None]
     try:
-        result = closed_loop.run_closed_loop(
-            plant=plant,
-            autopilot=ap,
-            actuators=actuators,
-            recorder=recorder,
-            dock=dock,
-            tolerance_m=tol,
-            timeout_s=timeout,
-            hold=DepthAttitudeHold(vehicle, mission.fly.hold_bandwidth_rad_s),
-            progress=progress,
+        stages = Stages(
+            plant,
+            readings,
+            Unsupervised(),
+            ap,
+            actuators,
+            DockingRule(dock, tol),
+            recorder,
+            DepthAttitudeHold(vehicle, mission.fly.hold_bandwidth_rad_s),
         )
+        result = closed_loop.run_closed_loop(stages, timeout_s=timeout, progress=progress)
     except BaseException:  # Ctrl-C or an error: keep every finished step, complete = False
         if writer is not None:
             writer.close()

@@ -40,19 +40,19 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from auvdock.loop.stages import LoopResult, Verdict
 from auvdock.vehicle.geometry import rotation_zyx
 from auvdock.vehicle.state import LIN, POS
 
 if TYPE_CHECKING:
     from auvdock.estimation.estimate import Estimate
-    from auvdock.loop.closed_loop import DockModel
+    from auvdock.loop.stages import ControlStage, DockModel, Observation
 
-__all__ = ["BOUND_95_3D", "Verdict", "MarginVerdict", "CaptureVerdict", "bound_95"]
+__all__ = ["BOUND_95_3D", "Verdict", "MarginVerdict", "CaptureVerdict", "DockingRule", "bound_95"]
 
 #: Distinct position readings averaged by the telemetry basis (0.2 s of a 25 Hz stream).
 TELEMETRY_MEAN = 5
@@ -67,57 +67,6 @@ def bound_95(distance_m: float, cov: np.ndarray) -> float:
     within this distance of the dock."""
     lam = float(np.max(np.linalg.eigvalsh(0.5 * (cov + cov.T))))
     return float(distance_m) + BOUND_95_3D * math.sqrt(max(lam, 0.0))
-
-
-@dataclass(frozen=True)
-class Verdict:
-    """One judgement of the docking rule.
-
-    Attributes
-    ----------
-    t : float
-        The instant judged, s (mission clock): the estimate's.
-    basis : str
-        What was judged: ``"navigation filter's estimate"``, ``"navigation filter's position"``,
-        ``"position telemetry"`` (``estimation:
-        truth``), ``"position telemetry and the camera's dock"`` (see the module docstring).
-    distance_m : float
-        The estimated distance of the vehicle from the dock, m.
-    bound_m : float
-        Its 95 % bound, m.
-    tolerance_m : float
-        The docking tolerance, m.
-    """
-
-    t: float
-    basis: str
-    distance_m: float
-    bound_m: float
-    tolerance_m: float
-    #: ``docking.criterion: capture``: whether the estimate, moved back out of the cradle by its 95 %
-    #: radius, is still captured (:class:`CaptureVerdict`); None: the point rule.
-    captured: bool | None = None
-
-    @property
-    def docked(self) -> bool:
-        """The 95 % bound is inside the tolerance (the capture rule: the estimate is captured with margin)."""
-        if self.captured is not None:
-            return self.captured
-        return self.bound_m <= self.tolerance_m
-
-    def describe(self) -> str:
-        """One line: ``"on the estimate: 0.021 m from the dock, 95 % bound 0.049 m <= 0.05 m"``."""
-        if self.captured is not None:
-            said = "captured" if self.captured else "not captured"
-            return (
-                f"on the {self.basis}: {said} with a 95 % margin of {self.bound_m - self.distance_m:.3f} m, "
-                f"{self.distance_m:.3f} m from the docking point"
-            )
-        rel = "<=" if self.docked else ">"
-        return (
-            f"on the {self.basis}: {self.distance_m:.3f} m from the dock, 95 % bound "
-            f"{self.bound_m:.3f} m {rel} {self.tolerance_m:g} m"
-        )
 
 
 class MarginVerdict:
@@ -277,3 +226,64 @@ class CaptureVerdict:
         if best is None or (not best.captured and (verdict.captured or verdict.bound_m < best.bound_m)):
             self.closest = verdict  # the first captured judgement, else the nearest
         return verdict
+
+
+class DockingRule:
+    """The loop's docking rule, judged at every period before the step (a stage of
+    :mod:`auvdock.loop.stages`).
+
+    In order: a non-finite state has diverged; the truth's contact with the dock's body (``docking.criterion:
+    capture`` in simulation) captured or collided ends the run; then docked: on the state (the truth, in
+    simulation) within ``tolerance_m`` of the dock, or with ``verdict`` on the control stage's newest
+    estimate (a vehicle: the 95 % bound of :class:`MarginVerdict`, or captured with a margin,
+    :class:`CaptureVerdict`), the estimate fresh (made at most two periods ago).
+
+    Parameters
+    ----------
+    dock : DockModel
+        The dock judged against.
+    tolerance_m : float or None
+        Docked within ``tolerance_m`` (m) of the dock; None: no verdict (a stand-in vehicle: the flight it
+        serves decides).
+    verdict : MarginVerdict or CaptureVerdict, optional
+        A vehicle's rule on its estimate; None: on the state.
+    """
+
+    def __init__(
+        self,
+        dock: DockModel,
+        tolerance_m: float | None,
+        verdict: MarginVerdict | CaptureVerdict | None = None,
+    ) -> None:
+        self.dock = dock
+        self.tolerance_m = tolerance_m
+        self.verdict = verdict
+
+    def judge(self, obs: Observation, stage: ControlStage, seeing: bool) -> tuple[float, LoopResult | None]:
+        """(distance from the dock (m; NaN when diverged), the ending or None) at ``obs``; ``seeing``:
+        the dock is in sight (the older camera tracker docks only while it sees it)."""
+        t, x = obs.t, obs.state
+        if not np.all(np.isfinite(x)):
+            return math.nan, LoopResult("diverged", f"the state went non-finite at t = {t:.2f} s", t)
+        dist = float(np.linalg.norm(x[POS] - self.dock.position(t)))
+        touch = obs.contact
+        if touch is not None and touch.status != "free":
+            said = f"{touch.describe()} at t = {t:.2f} s"
+            return dist, LoopResult(touch.status, said, t, touch.status == "captured", x.copy(), touch=touch)
+        judged = None
+        if self.verdict is not None and self.tolerance_m is not None:
+            est, stepped = stage.last_estimate, stage.last_step_t  # the step that made it (not its age)
+            fresh = est is not None and stepped is not None and t - stepped <= 2.0 * stage.dt + 1e-9
+            judged = self.verdict.judge(est if fresh else None)
+            inside = judged is not None and judged.docked
+        else:
+            inside = self.tolerance_m is not None and dist <= self.tolerance_m
+        if not (inside and seeing):
+            return dist, None
+        said = f"docked at t = {t:.2f} s" + ("" if judged is None else f" ({judged.describe()})")
+        return dist, LoopResult("docked", said, t, True, x.copy(), verdict=judged)
+
+    def finish(self, result: LoopResult) -> None:
+        """A run that ended otherwise carries the verdict's closest judgement."""
+        if self.verdict is not None and result.verdict is None:
+            result.verdict = self.verdict.closest

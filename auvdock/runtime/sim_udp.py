@@ -17,10 +17,7 @@ import socket
 import threading
 from collections import Counter
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
-
-if TYPE_CHECKING:
-    from auvdock.runtime.clock import SimClock
+from typing import Any, Protocol
 
 __all__ = [
     "CountingSocket",
@@ -91,10 +88,20 @@ class DatagramLedger:
             self._received[port] = self._sent[port]
 
 
+class CountingClock(Protocol):
+    """What a counting socket needs of its clock (:class:`auvdock.runtime.clock.SimClock` has it)."""
+
+    @property
+    def datagrams(self) -> DatagramLedger: ...
+
+    @property
+    def delivery_timeout_s(self) -> float: ...
+
+
 class CountingSocket:
     """A UDP socket whose datagrams the ledger of its SimClock counts (see :func:`attach_counting`)."""
 
-    def __init__(self, sock: socket.socket, clock: SimClock) -> None:
+    def __init__(self, sock: socket.socket, clock: CountingClock) -> None:
         self._sock = sock
         self._clock = clock
         self._ledger = clock.datagrams
@@ -144,7 +151,7 @@ class CountingSocket:
         return getattr(self._sock, name)
 
 
-def attach_counting(conn: Any, clock: SimClock) -> None:
+def attach_counting(conn: Any, clock: CountingClock) -> None:
     """Count the datagrams of a pymavlink UDP connection (``udpin:`` / ``udpout:``); idempotent.
 
     Raises

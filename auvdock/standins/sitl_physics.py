@@ -90,6 +90,7 @@ import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -97,17 +98,22 @@ from auvdock.config.mission import Mission, load_mission
 from auvdock.controllers.base import ControlOutput
 from auvdock.controllers.status import STATUS_OK
 from auvdock.loop import closed_loop
-from auvdock.loop.closed_loop import Applied, LoopEnding, LoopRecorder, Observation
+from auvdock.loop.recorder import LoopRecorder
+from auvdock.loop.stages import Applied, LoopEnding, LoopResult, NoReadings, Observation, Stages, Unsupervised
+from auvdock.loop.verdict import DockingRule
 from auvdock.runtime.clock import Clock, wall_clock
 from auvdock.runtime.interrupts import SigintDeferred
 from auvdock.sensing.readings import Readings
-from auvdock.standins.truth_record import TruthRecord
+from auvdock.standins.truth_record import TruthContact, TruthRecord
 from auvdock.vehicle.actuators import ActuatorCommand, IdealActuators
 from auvdock.vehicle.geometry import wrap_angle
 from auvdock.vehicle.state import POS
 from auvdock.vehicle.thrusters import PWM_MAX_US, PWM_MIN_US, PWM_NEUTRAL_US, T200, ThrusterCurve
 from auvdock.world.dock import ShiftedDock
 from auvdock.world.plant import TruthPlant
+
+if TYPE_CHECKING:
+    from auvdock.estimation.estimate import Estimate
 
 __all__ = [
     "DEFAULT_LISTEN",
@@ -391,6 +397,8 @@ class SitlPhysics:
         self._dock_offset = np.array(dock_offset_ned_m, dtype=float).reshape(3)
         #: The true dock: where the camera's view puts it (the distances and the truth file measure to it).
         self.true_dock = ShiftedDock(self.dock, self._dock_offset)
+        #: docking.criterion: capture -- the truth's contact with the dock's body, recorded (not judged)
+        self._contact = TruthContact.of(mission, self.true_dock, built=self.dock)
         z0 = float(self._x_start[2])
         self._lowered = self.boot_at_surface and z0 > 0.0
         self._descent_s = max(DESCENT_MIN_S, 1.5 * z0 / DESCENT_SPEED_M_S) if self._lowered else 0.0
@@ -708,7 +716,7 @@ class SitlPhysics:
                 vehicle=self.vehicle,
                 dock=self.true_dock,
                 extra_series={},
-                plant_columns=dict(_SitlPlant.columns),
+                plant_columns=_SitlPlant.columns_of(self),
                 channels=False,
                 keep=False,
             )
@@ -718,15 +726,16 @@ class SitlPhysics:
                 )
                 recorder.sinks.append(truth)
             pilot = _MotorOutputs(self)
-            closed_loop.run_closed_loop(
-                plant=_SitlPlant(self, pilot),
-                autopilot=pilot,
-                actuators=IdealActuators(self.vehicle),  # the motors' thrust, from SITL's own mixer
-                recorder=recorder,
-                dock=self.true_dock,
-                tolerance_m=None,  # the flight decides docking
-                timeout_s=math.inf,  # until stopped (or duration_s)
+            stages = Stages(
+                _SitlPlant(self, pilot),
+                NoReadings(),  # SITL reads its own sensors from the replies
+                Unsupervised(),  # ArduSub's own failsafes act in SITL
+                pilot,
+                IdealActuators(self.vehicle),  # the motors' thrust, from SITL's own mixer
+                DockingRule(self.true_dock, None),  # the flight decides docking
+                recorder,
             )
+            closed_loop.run_closed_loop(stages, timeout_s=math.inf)  # until stopped (or duration_s)
         except BaseException as e:  # kept for the caller; the thread must not die silently
             self._error = e
             self._stop_event.set()
@@ -741,11 +750,17 @@ class _MotorOutputs:
     frame being stepped, after SITL's own VECTORED_6DOF mixer) become thrust through the
     vehicle's thruster curve (:func:`motor_thrust`)."""
 
+    last_estimate: Estimate | None = None  # it estimates nothing
+    last_step_t: float | None = None
+
     def __init__(self, sim: SitlPhysics) -> None:
         self.sim = sim
         self.vehicle = sim.vehicle
         self.dt = 1.0 / 1000.0  # nominal: the plant steps each frame by its own 1 / frame_rate
         self.frame: ServoFrame | None = None
+
+    def finish(self, result: LoopResult) -> None:
+        """Nothing to add."""
 
     @property
     def extra_series(self) -> dict[str, tuple[int, ...]]:
@@ -766,13 +781,21 @@ class _SitlPlant:
     nominal clock); datagrams that are not frames are counted, repeated frames answered again,
     a restart starts the vehicle over; the truth is stepped over the frame and the reply sent."""
 
-    columns: dict[str, tuple[int, ...]] = {"armed": ()}
-
     def __init__(self, sim: SitlPhysics, pilot: _MotorOutputs) -> None:
         self.sim = sim
         self.pilot = pilot
+        self.columns = self.columns_of(sim)
         self._sender: tuple[str, int] | None = None
         self._thrust = np.zeros(N_MOTORS)
+
+    @staticmethod
+    def columns_of(sim: SitlPhysics) -> dict[str, tuple[int, ...]]:
+        """``armed`` (the motors pushing); with ``docking.criterion: capture`` also the truth's contact with
+        the dock's body (:class:`auvdock.standins.truth_record.TruthContact`)."""
+        out: dict[str, tuple[int, ...]] = {"armed": ()}
+        if sim._contact is not None:
+            out.update(sim._contact.columns)
+        return out
 
     def start(self) -> None:
         """Nothing to do: physics time is the frames'."""
@@ -801,9 +824,11 @@ class _SitlPlant:
                 if again is None:  # a new frame: this instant's command
                     self.pilot.frame, self._sender = frame, peer
                     x = sim.plant.state
-                    pushing = {"armed": np.asarray(float(sim._motors_active))}
+                    columns = {"armed": np.asarray(float(sim._motors_active))}
+                    if sim._contact is not None:  # recorded only: the flight judges, the truth-check scores
+                        columns.update(sim._contact.at(x, sim._t))
                     v_c = np.asarray(sim.flow.velocity(x[POS], sim._t))
-                    return Observation(sim._t, x, v_c, Readings(sim._t), columns=pushing)
+                    return Observation(sim._t, x, v_c, columns)
             self._send(again, peer)
 
     def apply(self, t: float, command: ActuatorCommand) -> Applied:
@@ -817,9 +842,6 @@ class _SitlPlant:
             reply = sim._step_and_reply(frame, self._thrust)
         self._send(reply, self._sender)
         return True
-
-    def after_step(self, out: ControlOutput) -> None:
-        """Nothing to monitor."""
 
     def _send(self, reply: bytes, peer: tuple[str, int]) -> None:
         sock = self.sim._sock

@@ -31,12 +31,60 @@ from auvdock.results.store import RunWriter
 
 if TYPE_CHECKING:
     from auvdock.config.mission import Mission
+    from auvdock.loop.stages import DockModel
 
-__all__ = ["TRUTH_PERIOD_S", "TRUTH_SOURCE", "CONTACT_STATUSES", "TruthRecord"]
+__all__ = ["TRUTH_PERIOD_S", "TRUTH_SOURCE", "CONTACT_STATUSES", "TruthContact", "TruthRecord"]
 
 #: ``contact_status`` of a truth row (``docking.criterion: capture``): an index of this tuple
 #: (:func:`auvdock.world.dock_body.classify_contact`).
 CONTACT_STATUSES = ("free", "captured", "collided")
+
+
+class TruthContact:
+    """A stand-in's truth in contact with the dock's body (``docking.criterion: capture``), recorded
+    per row, not judged (the flight it serves judges; ``truth-check`` scores it).
+
+    Parameters
+    ----------
+    mission : Mission
+        Its dock's body, the vehicle's hull and the capture limits
+        (:meth:`~auvdock.config.mission.Mission.build_contact`).
+    dock : DockModel
+        The true dock (where the body is).
+    built : optional
+        The dock as the mission built it, where ``dock`` is moved from it (sitl-physics' camera offset):
+        a WEC dock's buoy is part of the body.  Default: ``dock``.
+    """
+
+    #: The columns it adds to the truth's rows: name -> per-row shape.
+    columns: dict[str, tuple[int, ...]] = {"contact_status": (), "nose_dock_m": (3,)}
+
+    def __init__(self, mission: Mission, dock: DockModel, built: Any = None) -> None:
+        contact = mission.build_contact(dock if built is None else built)
+        if contact is None:
+            raise ValueError("TruthContact: the mission is not judged by capture (docking.criterion)")
+        self.body, self.hull, self.limits = contact
+        self.dock = dock
+
+    @classmethod
+    def of(cls, mission: Mission, dock: DockModel, built: Any = None) -> TruthContact | None:
+        """The recorder of a capture mission, else None."""
+        return cls(mission, dock, built) if mission.docking.criterion == "capture" else None
+
+    def at(self, x: np.ndarray, t: float) -> dict[str, np.ndarray]:
+        """The columns at the true state ``x`` (12,) and instant ``t`` (s): the contact's status (an
+        index of :data:`CONTACT_STATUSES`) and the nose in the dock frame (m)."""
+        from auvdock.world.dock_body import classify_contact
+
+        d = self.dock
+        touch = classify_contact(
+            x, d.position(t), d.velocity(t), self.body, self.hull, self.limits, dock_heading_rad=d.heading_rad
+        )
+        return {
+            "contact_status": np.asarray(float(CONTACT_STATUSES.index(touch.status))),
+            "nose_dock_m": np.asarray(touch.nose_dock_m, dtype=float),
+        }
+
 
 #: The ``source`` attribute of every truth file (what :func:`auvdock.fly.truth_check.check_flight` reads).
 TRUTH_SOURCE = "vehicle-sim truth"

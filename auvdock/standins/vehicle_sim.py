@@ -101,7 +101,7 @@ import threading
 from collections import deque
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from pymavlink import mavutil
@@ -112,7 +112,9 @@ from auvdock.controllers.base import ControlOutput
 from auvdock.controllers.status import STATUS_OK
 from auvdock.fly.units import pressure_hpa
 from auvdock.loop import closed_loop
-from auvdock.loop.closed_loop import Applied, LoopEnding, LoopRecorder, Observation
+from auvdock.loop.recorder import LoopRecorder
+from auvdock.loop.stages import Applied, LoopEnding, LoopResult, NoReadings, Observation, Stages, Unsupervised
+from auvdock.loop.verdict import DockingRule
 from auvdock.runtime.clock import Clock, wall_clock
 from auvdock.runtime.interrupts import SigintDeferred
 from auvdock.sensing.errors import sensor_errors
@@ -138,12 +140,14 @@ from auvdock.standins.telemetry_out import (
     SensorNoise,
     StreamSchedule,
 )
-from auvdock.standins.truth_record import CONTACT_STATUSES, TruthRecord
+from auvdock.standins.truth_record import TruthContact, TruthRecord
 from auvdock.vehicle.actuators import ActuatorCommand, ArduSubActuators
 from auvdock.vehicle.ardusub import thrust_from_channels
 from auvdock.vehicle.state import POS
-from auvdock.world.dock_body import classify_contact
 from auvdock.world.plant import TruthPlant
+
+if TYPE_CHECKING:
+    from auvdock.estimation.estimate import Estimate
 
 __all__ = [
     "VehicleSim",
@@ -261,7 +265,7 @@ class VehicleSim:
             self._dock = mission.build_dock(self.sea, truth=True)  # recorded, rendered; no verdict here
             self._start = mission.true_start_state()
             # docking.criterion: capture -- the truth's contact with the dock's body, recorded (not judged)
-            self._contact = mission.build_contact(self._dock)
+            self._contact = TruthContact.of(mission, self._dock)
             self._plant = TruthPlant(
                 self.vehicle,
                 self.flow,
@@ -581,15 +585,16 @@ class VehicleSim:
                     self.truth_out, "vehicle-sim", self.mission, recorder.series, self.vehicle.n_thrusters
                 )
                 recorder.sinks.append(truth)
-            closed_loop.run_closed_loop(
-                plant=_StandinPlant(self),
-                autopilot=_RemotePilot(self),
-                actuators=ArduSubActuators(self.vehicle),
-                recorder=recorder,
-                dock=self._dock,
-                tolerance_m=None,  # the flight it serves decides docking
-                timeout_s=math.inf,  # until stopped
+            stages = Stages(
+                _StandinPlant(self),
+                NoReadings(),  # its pilot is on the link
+                Unsupervised(),  # ArduSub's own failsafe acts in the plant
+                _RemotePilot(self),
+                ArduSubActuators(self.vehicle),
+                DockingRule(self._dock, None),  # the flight it serves decides docking
+                recorder,
             )
+            closed_loop.run_closed_loop(stages, timeout_s=math.inf)  # until stopped
         except BaseException as e:  # keep it for run_forever; the thread must not die silently
             self._error = e
             self._stop_event.set()
@@ -778,11 +783,16 @@ class _RemotePilot:
     actuator path (ArduSub's mixer and the thruster curve) makes the thrust."""
 
     extra_series: dict[str, tuple[int, ...]] = {}
+    last_estimate: Estimate | None = None  # it estimates nothing
+    last_step_t: float | None = None
 
     def __init__(self, sim: VehicleSim) -> None:
         self.sim = sim
         self.dt = sim.dt
         self.vehicle = sim.vehicle
+
+    def finish(self, result: LoopResult) -> None:
+        """Nothing to add."""
 
     def step(self, readings: Readings) -> ControlOutput:
         with self.sim._lock:
@@ -813,7 +823,7 @@ class _StandinPlant:
         nose in the dock frame ``nose_dock_m`` (m)."""
         out: dict[str, tuple[int, ...]] = {"armed": ()}
         if sim._contact is not None:
-            out.update(contact_status=(), nose_dock_m=(3,))
+            out.update(sim._contact.columns)
         return out
 
     def start(self) -> None:
@@ -829,15 +839,9 @@ class _StandinPlant:
             x = sim._plant.state
             columns = {"armed": np.asarray(float(sim._commands.armed))}
         if sim._contact is not None:  # recorded only: the flight it serves judges, the truth-check scores
-            body, hull, limits = sim._contact
-            touch = classify_contact(
-                x, sim._dock.position(t), sim._dock.velocity(t), body, hull, limits,
-                dock_heading_rad=sim._dock.heading_rad,
-            )  # fmt: skip
-            columns["contact_status"] = np.asarray(float(CONTACT_STATUSES.index(touch.status)))
-            columns["nose_dock_m"] = touch.nose_dock_m
+            columns.update(sim._contact.at(x, t))
         v_c = np.asarray(sim.flow.velocity(x[POS], t), dtype=float)
-        return Observation(t, x, v_c, Readings(t), columns=columns)
+        return Observation(t, x, v_c, columns)
 
     def apply(self, t: float, command: ActuatorCommand) -> Applied:
         sim = self.sim
@@ -857,6 +861,3 @@ class _StandinPlant:
         if sim.clock.now() - self._next_t > MAX_LAG_S:
             self._next_t = sim.clock.now()
         return True
-
-    def after_step(self, out: ControlOutput) -> None:
-        """Nothing to monitor: the vehicle's own failsafe acts in :meth:`observe`."""
