@@ -53,10 +53,10 @@ def main() -> None:
     from auvdock.config.catalog import resolve
     from auvdock.config.mission import load_mission
     from auvdock.controllers.registry import CONTROLLERS, split_controller
-    from auvdock.fly.truth_check import check_flight
     from auvdock.results.store import read_run
     from auvdock.runtime.clock import SimClock
     from auvdock.standins.link_relay import Impairment, LinkRelay
+    from auvdock.standins.truth_check import check_flight
     from auvdock.standins.vehicle_sim import VehicleSim
 
     mission = resolve(args.mission)

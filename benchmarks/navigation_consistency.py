@@ -167,7 +167,7 @@ def _sim_run(args: tuple[str, str, int]) -> tuple[np.ndarray, np.ndarray, np.nda
     from auvdock.config.catalog import mission_path
     from auvdock.config.mission import load_mission
     from auvdock.estimation.navigation_filter import NZ
-    from auvdock.loop.autopilot import build_autopilot
+    from auvdock.loop.assemble import build_autopilot
     from auvdock.loop.simulation import simulate
     from auvdock.results.store import read_run
     from auvdock.sensing.simulated import SensorSuite

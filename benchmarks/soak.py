@@ -11,7 +11,7 @@ the start while disarmed, so each flight starts where the last one was set up). 
 prints how the flight ended, whether its results file and tlog are complete, this process's resident
 memory (MB; and again after glibc's ``malloc_trim``: the memory in use, not the free pages the allocator
 keeps) and open file descriptors, and -- once the simulator stops -- every flight scored on the
-truth (:func:`auvdock.fly.truth_check.check_flight`: fly's verdict right or wrong, the truth's distance
+truth (:func:`auvdock.standins.truth_check.check_flight`: fly's verdict right or wrong, the truth's distance
 at the verdict, and for a mission judged by capture the truth's contact with the dock's body then).
 Memory and descriptors should stay flat; every file complete.
 
@@ -80,8 +80,8 @@ def main() -> None:
     from auvdock.cli import app
     from auvdock.config.catalog import resolve
     from auvdock.config.mission import load_mission
-    from auvdock.fly.truth_check import check_flight
     from auvdock.runtime.clock import SimClock
+    from auvdock.standins.truth_check import check_flight
     from auvdock.standins.vehicle_sim import VehicleSim
 
     out = args.out or Path(tempfile.mkdtemp(prefix="auvdock-soak-"))

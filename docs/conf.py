@@ -13,16 +13,12 @@ from __future__ import annotations
 
 import shutil
 import sys
-import types
 from importlib import metadata
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-# ``auvdock/cli/__main__.py`` runs the command line when it is imported, and autosummary's
-# recursive walk imports every module of a package: give it an empty stand-in instead.
-sys.modules.setdefault("auvdock.cli.__main__", types.ModuleType("auvdock.cli.__main__"))
 
 project = "auvdock"
 author = "the auvdock authors"

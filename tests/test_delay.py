@@ -157,7 +157,7 @@ def test_fly_docks_through_100_ms_with_jitter_and_loss(loop, tmp_path, controlle
     for the jitter) dock tank_positioned and the truth comes within the tolerance; the round trip is
     measured (about 0.2 s) and recorded with every row, and each estimate was predicted over its age plus
     the command's delay (about 0.1 s + the reading's age)."""
-    from auvdock.fly.truth_check import check_flight
+    from auvdock.standins.truth_check import check_flight
 
     imp = Impairment(delay_s=0.1, jitter_s=0.03, loss=0.05)
     truth = tmp_path / "truth.h5"

@@ -11,7 +11,7 @@ import pytest
 
 from auvdock.config.mission import load_mission
 from auvdock.estimation.dock_knowledge import TelemetryDock
-from auvdock.loop.autopilot import build_autopilot, knows_dock_from_telemetry
+from auvdock.loop.assemble import build_autopilot, knows_dock_from_telemetry
 from auvdock.loop.simulation import idealisations
 from auvdock.sensing.settings import SensorSettings
 from auvdock.sensing.simulated import SensorSuite
@@ -123,10 +123,10 @@ def test_with_the_waves_off_the_basin_mission_docks_as_before():
     """The basin mission without its waves: no wave model in the filter (the water is a current), the
     dock still heaving on its drive and forecast from its telemetry; CE captures without collision."""
     import auvdock
-    from auvdock.estimation.stage import wave_model
+    from auvdock.loop.assemble import filter_wave_model
 
     calm = load_mission("basin_regular").with_updates(sea__waves=None)
-    assert wave_model(calm) is None
+    assert filter_wave_model(calm) is None
     run = auvdock.simulate(calm, controller="ce", seed=3)
     o = run.outcome
     assert o["reason"] == "captured" and not o["collided"], o

@@ -146,7 +146,7 @@ def test_a_rehearsal_writes_its_truth_and_the_flight_is_scored_on_it(loop, tmp_p
     WRONG path of truth-check on the same files with the tolerance cut below the truth's distance."""
     from typer.testing import CliRunner
 
-    from auvdock.fly.truth_check import check_flight
+    from auvdock.standins.truth_check import check_flight
 
     truth = tmp_path / "truth.h5"
     sim, port = loop.vehicle(truth_out=truth, noise=noise, hold_start=True)

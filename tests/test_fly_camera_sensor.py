@@ -22,10 +22,10 @@ from auvdock.config.mission import MissionError, load_mission
 from auvdock.estimation.estimate import Estimate
 from auvdock.fly.replay import replay
 from auvdock.fly.session import check_flyable
-from auvdock.fly.truth_check import check_flight
 from auvdock.loop.simulation import simulate
 from auvdock.loop.verdict import BOUND_95_3D, CaptureVerdict, MarginVerdict
 from auvdock.results.store import read_run
+from auvdock.standins.truth_check import check_flight
 
 TANK_0P6 = ROOT / "missions" / "tank_0p6hz.yaml"
 

@@ -8,8 +8,9 @@ import math
 import numpy as np
 import pytest
 
+from auvdock.config.guidance import GUIDANCE_PHASES, GuidanceSettings
 from auvdock.estimation.estimate import Estimate
-from auvdock.loop.guidance import GUIDANCE_PHASES, Guidance, GuidanceSettings, lost_track_summary
+from auvdock.loop.guidance import Guidance, lost_track_summary
 from auvdock.world.dock import HeaveDock
 
 DOCK = HeaveDock(position_ned_m=(2.0, 0.0, 1.0), heading_rad=0.0)  # entry from the south, at rest

@@ -82,7 +82,7 @@ def test_sim_sigint_before_the_run_does_not_take_an_earlier_file_for_its_own(tmp
     out = tmp_path / "runs"
     env = {**os.environ, "AUVDOCK_COMPILE": "never"}
     args = ["sim", "diagonal", "-c", "naive", "--timeout", "1", "--no-plots", "--out", str(out)]
-    first = subprocess.run([sys.executable, "-m", "auvdock.cli", *args], env=env, capture_output=True)
+    first = subprocess.run([sys.executable, "-m", "auvdock", *args], env=env, capture_output=True)
     assert first.returncode == 1, first.stderr  # ran whole, did not dock in 1 s
     res = _sim_interrupted("call:auvdock.loop.simulation:simulate", out)  # before this run's first step
     what = f"stdout:\n{res.stdout}\nstderr:\n{res.stderr}"

@@ -182,13 +182,14 @@ def test_every_catalogued_series_has_one_unit_and_a_description(fse_run: Run, tm
 
 
 def test_catalogue_agrees_with_the_recording_code() -> None:
+    from auvdock.config.guidance import GUIDANCE_PHASES
     from auvdock.controllers.fse import FSEMPC
     from auvdock.estimation.stage import ESTIMATION_SERIES, FORECAST_HORIZONS_S, FORECAST_SERIES, WAVE_SERIES
     from auvdock.fly.camera import CAMERA_SERIES, CAMERA_STATES
     from auvdock.fly.camera_sensor import CAMERA_SENSOR_SERIES
     from auvdock.fly.dock_telemetry import DOCK_TELEMETRY_SERIES
     from auvdock.fly.plant import TELEMETRY_COLUMNS
-    from auvdock.loop.guidance import GUIDANCE_PHASES, GUIDANCE_SERIES
+    from auvdock.loop.guidance import GUIDANCE_SERIES
     from auvdock.loop.simulated_plant import SEA_COLUMNS
     from auvdock.standins.truth_record import CONTACT_STATUSES
     from auvdock.vehicle.ardusub import CHANNELS

@@ -14,7 +14,8 @@ import pytest
 from helpers.plant import plant
 
 from auvdock.config.mission import load_mission
-from auvdock.loop.autopilot import Autopilot, build_autopilot
+from auvdock.loop.assemble import build_autopilot
+from auvdock.loop.autopilot import Autopilot
 from auvdock.loop.simulation import simulate
 from auvdock.sensing.readings import Readings
 

@@ -34,7 +34,7 @@ def test_robust_fse_docks_where_the_paper_variant_does_not(controller, case) -> 
     """Over 10 seeds of the simulated sensing (Assumption 1's noise; the only random input of
     these runs), the robust variant docks in at least 9, within the tolerance, with no failed
     solve in the runs that dock."""
-    from auvdock.loop.autopilot import build_autopilot
+    from auvdock.loop.assemble import build_autopilot
 
     m = load_mission(ROOT / "missions" / f"{case}.yaml").with_updates(**{"controller.type": controller})
     assert m.controller.variant == "robust" and m.estimator.prior_flow_ned_m_s == [0.0, 0.0, 0.0]
@@ -59,7 +59,7 @@ def test_robust_fse_docks_with_plant_model_error(controller) -> None:
     the vehicle hardly turns, a 0.3 m/s^2 residual is metres per second of flow) and reads the
     pose's own motion too, so its estimate stays near the true still water and the controller
     docks.  (The paper variant is not flown here: nothing about it is asserted.)"""
-    from auvdock.loop.autopilot import build_autopilot
+    from auvdock.loop.assemble import build_autopilot
 
     m = load_mission(ROOT / "missions" / "tank_positioned.yaml")
     m = m.with_updates(**{"controller.type": controller})

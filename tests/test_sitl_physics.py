@@ -423,7 +423,7 @@ def test_cli_bad_input_is_one_line_and_exit_2(tmp_path: Path) -> None:
 def _spawn(args: list[str], sigint_ignored: bool = False) -> subprocess.Popen:
     env = {**os.environ, "AUVDOCK_COMPILE": "never", "PYTHONUNBUFFERED": "1"}
     env["PYTHONPATH"] = os.pathsep.join([str(ROOT), env.get("PYTHONPATH", "")])
-    cmd = [sys.executable, "-m", "auvdock.cli", "sitl-physics", *args]
+    cmd = [sys.executable, "-m", "auvdock", "sitl-physics", *args]
 
     def ignore_sigint() -> None:  # as a background job of a non-interactive shell starts
         signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -571,8 +571,8 @@ def test_camera_streams_the_true_view_over_rtp_and_the_markers_are_found(serve) 
     pytest.importorskip("av")
     from auvdock.camera.model import CameraMount, camera_from_dock
     from auvdock.camera.pose import MarkerDetector, estimate_dock_pose
-    from auvdock.camera.truth_stream import TruthCameraStream
     from auvdock.camera.video_in import open_source
+    from auvdock.standins.truth_camera import TruthCameraStream
 
     physics, peer = serve("sitl_camera", hold_until_thrust=False)
     for k in range(2 * RATE):  # 2 s of floating up, then no more frames: the pose stays put
@@ -609,7 +609,7 @@ def test_camera_streams_the_true_view_over_rtp_and_the_markers_are_found(serve) 
 
 
 def test_truth_stream_frame_is_the_synthetic_camera_view_of_the_pose() -> None:
-    from auvdock.camera.truth_stream import TruthCameraStream
+    from auvdock.standins.truth_camera import TruthCameraStream
 
     m = load_mission(MISSIONS / "sitl_camera.yaml")
     eta = m.start_state()[0:6] + np.array([0.3, 0.05, 0.0, 0.0, 0.0, 0.1])

@@ -12,7 +12,7 @@ from scipy.integrate import solve_ivp
 
 from auvdock.estimation.water_ahead import WaterAhead
 from auvdock.estimation.wave_model import WaveModel
-from auvdock.world.constants import GRAVITY_M_S2
+from auvdock.vehicle.constants import GRAVITY_M_S2
 from auvdock.world.waves import WaveComponents
 
 

@@ -13,8 +13,8 @@ import pytest
 from auvdock.config.mission import load_mission
 from auvdock.estimation.navigation_filter import NavigationFilter
 from auvdock.estimation.settings import NavigationSettings
-from auvdock.estimation.stage import wave_model
 from auvdock.estimation.wave_model import WaveModel
+from auvdock.loop.assemble import filter_wave_model
 from auvdock.sensing.settings import SensorSettings
 from auvdock.sensing.simulated import SensorSuite
 from auvdock.vehicle import load_vehicle
@@ -41,11 +41,11 @@ def test_orbital_statistics_of_a_regular_wave_are_linear_theorys():
 
 def test_the_missions_wave_model_is_the_sea_states_and_off_without_waves():
     m = load_mission("pacwave_common_10m")
-    w = wave_model(m)
+    w = filter_wave_model(m)
     assert w is not None and w.damping_ratio == 0.1
     assert 2 * math.pi / w.omega_rad_s == pytest.approx(8.7, abs=0.5)  # Tp 9.44 s, Te 8.5 s
-    assert wave_model(m.with_updates(navigation__waves="off")) is None
-    assert wave_model(load_mission("tank_0p6hz")) is None
+    assert filter_wave_model(m.with_updates(navigation__waves="off")) is None
+    assert filter_wave_model(load_mission("tank_0p6hz")) is None
 
 
 def _fly(waves: WaveModel | None, seconds: float = 120.0) -> np.ndarray:

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from auvdock.vehicle import load_vehicle
-from auvdock.world.constants import GRAVITY_M_S2 as G
+from auvdock.vehicle.constants import GRAVITY_M_S2 as G
 from auvdock.world.plant import TruthPlant
 from auvdock.world.spectra import (
     SpectrumFileError,

@@ -7,7 +7,7 @@ import yaml
 from typer.testing import CliRunner
 
 from auvdock.cli import app
-from auvdock.config.yamlio import load_yaml_strict
+from auvdock.schema.yamlio import load_yaml_strict
 
 
 def test_duplicate_key_in_a_nested_mapping() -> None:

@@ -26,7 +26,7 @@ video_common
     What both sides share (the RTP payload type, :class:`VideoSourceError`).
 tracker
     ``fly`` with ``dock.source: camera``: the synthetic camera, the detection thread and the
-    lost-tracking states (imported on its own: ``auvdock.camera.tracker``).
+    lost-tracking states (imported on its own: ``auvdock.fly.dock_tracker``).
 calibration
     Checkerboard camera calibration (:func:`calibrate`, :func:`find_corners`) from image folders or videos
     (:func:`image_sources`).

@@ -1,6 +1,6 @@
 """The detection thread's loop, one for every camera path (no OpenCV at import: ``fly`` loads it lazily).
 
-:class:`DetectionLoop` is the loop of :class:`auvdock.camera.tracker.DockTracker` (``dock.source:
+:class:`DetectionLoop` is the loop of :class:`auvdock.fly.dock_tracker.DockTracker` (``dock.source:
 camera``) and :class:`auvdock.fly.camera_sensor.CameraSensor` (``sensors.dock_camera``).
 """
 
@@ -18,7 +18,7 @@ __all__ = ["DetectionLoop"]
 
 
 class DetectionLoop:
-    """The detection thread's loop, one for every camera path (:class:`auvdock.camera.tracker.DockTracker`,
+    """The detection thread's loop, one for every camera path (:class:`auvdock.fly.dock_tracker.DockTracker`,
     :class:`auvdock.fly.camera_sensor.CameraSensor`): take each new frame from ``grabber`` (the newest:
     slow detection drops frames, it never lags), count it, ``process`` it, keep what it gives in
     ``_fixes`` (under ``_lock``) until ``_stop``; the grabber's error, or one of ``process``, ends it and

@@ -31,7 +31,7 @@ import cv2
 import numpy as np
 import yaml
 
-from auvdock.config.yamlio import load_yaml_strict
+from auvdock.schema.yamlio import load_yaml_strict
 from auvdock.vehicle.geometry import point_in_sensor_frame, rotation_zyx
 from auvdock.vehicle.state import POS
 

@@ -18,7 +18,7 @@ from typing import Any
 from pydantic import ValidationError
 
 from auvdock.config.mission import Mission, MissionError
-from auvdock.config.schema import first_error
+from auvdock.schema.strict import first_error
 
 __all__ = [
     "ID_COLUMNS",

@@ -1,7 +1,7 @@
 """One run, in whatever process runs it: :func:`execute_run`.
 
 It builds the run's nominal and truth missions, the autopilot from the nominal one
-(:func:`auvdock.loop.autopilot.build_autopilot`, timed: that is where solvers are built and
+(:func:`auvdock.loop.assemble.build_autopilot`, timed: that is where solvers are built and
 compiled), flies the truth plant with it (:func:`auvdock.loop.simulation.simulate`), and
 returns plain data: the run's table row and, when the spec names a run group, the run as
 an HDF5 file image (bytes), which the driver copies into the results file.  Nothing here
@@ -45,7 +45,7 @@ def execute_run(spec: RunSpec, progress: ProgressFn | None = None) -> dict[str, 
     """
     import h5py
 
-    from auvdock.loop.autopilot import build_autopilot
+    from auvdock.loop.assemble import build_autopilot
     from auvdock.loop.simulation import simulate
 
     row = empty_row(spec, {**OUTCOME_COLUMNS})

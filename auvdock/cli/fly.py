@@ -39,7 +39,7 @@ from auvdock.runtime.interrupts import interrupt_name
 RECEIVED_LOG = 2_000
 
 if TYPE_CHECKING:
-    from auvdock.camera.truth_stream import TruthCameraStream
+    from auvdock.standins.truth_camera import TruthCameraStream
     from auvdock.standins.vehicle_sim import VehicleSim
 
 #: The clock ``fly`` and ``vehicle-sim`` wait and pace on.
@@ -335,9 +335,9 @@ def _truth_camera(
     m: Mission, sim: VehicleSim, target: tuple[str, int], option: str | None
 ) -> TruthCameraStream:
     """vehicle-sim's --camera: the view of its true pose as RTP/H.264 (exit 2 on a bad camera or encoder)."""
-    from auvdock.camera.truth_stream import TruthCameraStream
     from auvdock.camera.video_common import VideoSourceError
     from auvdock.camera.video_out import h264_encoder
+    from auvdock.standins.truth_camera import TruthCameraStream
 
     try:
         h264_encoder()
@@ -355,7 +355,7 @@ def truth_check(
     truth: Path = typer.Argument(..., help="The truth of the same session (vehicle-sim --truth-out)."),
 ) -> None:
     """Score a rehearsed flight on what really happened: its verdict, the truth's closest approach."""
-    from auvdock.fly.truth_check import check_flight
+    from auvdock.standins.truth_check import check_flight
 
     for p in (flight, truth):
         if not p.is_file():

@@ -218,7 +218,7 @@ def sim(
             highlight=False,
             soft_wrap=True,
         )
-    from auvdock.loop.autopilot import build_autopilot
+    from auvdock.loop.assemble import build_autopilot
     from auvdock.loop.simulation import idealisations
     from auvdock.runtime.interrupts import SigintDeferred
 

@@ -3,7 +3,7 @@
 The real ArduSub firmware runs in SITL; this command moves its vehicle
 (:class:`auvdock.standins.sitl_physics.SitlPhysics`) and, with ``--camera``, streams the
 camera's view of the true pose as RTP/H.264
-(:class:`auvdock.camera.truth_stream.TruthCameraStream`).  ``docs/commands/sitl-physics.md`` says how to run
+(:class:`auvdock.standins.truth_camera.TruthCameraStream`).  ``docs/commands/sitl-physics.md`` says how to run
 the three programs together.
 
 Output is plain lines (readable in a log file): one when it starts, one per event (SITL
@@ -31,8 +31,8 @@ from auvdock.runtime.clock import Clock, wall_clock
 from auvdock.runtime.interrupts import interrupt_name
 
 if TYPE_CHECKING:
-    from auvdock.camera.truth_stream import TruthCameraStream
     from auvdock.standins.sitl_physics import PhysicsEvent, SitlPhysics
+    from auvdock.standins.truth_camera import TruthCameraStream
 
 #: The clock ``sitl-physics`` waits on.
 clock: Clock = wall_clock
@@ -174,9 +174,9 @@ def sitl_physics(
 
     stream: TruthCameraStream | None = None
     if target is not None:
-        from auvdock.camera.truth_stream import TruthCameraStream
         from auvdock.camera.video_common import VideoSourceError
         from auvdock.camera.video_out import h264_encoder
+        from auvdock.standins.truth_camera import TruthCameraStream
 
         try:
             h264_encoder()

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from pydantic import Field
 
-from auvdock.config.schema import NonNegFloat, PosFloat, Strict
+from auvdock.schema.strict import NonNegFloat, PosFloat, Strict
 from auvdock.world.dock_body import CaptureLimits, DockBody, HullBox, WecBuoy
 
 __all__ = ["DockBodySpec", "CaptureSpec"]

@@ -30,13 +30,13 @@ from pydantic import (
 )
 
 from auvdock.config.contact import CaptureSpec, DockBodySpec
-from auvdock.config.schema import NonNegFloat, PosFloat, Strict, Vec3, Vec12, first_error, fixed_len
+from auvdock.config.guidance import GuidanceSettings
 from auvdock.config.sea import SeaSpec, WecSpec
-from auvdock.config.yamlio import load_yaml_strict
 from auvdock.controllers.registry import controller_names, settings_for, settings_union, split_controller
 from auvdock.controllers.settings import MPCSettings, solver_names
 from auvdock.estimation.settings import EstimatorSettings, NavigationSettings
-from auvdock.loop.guidance import GuidanceSettings
+from auvdock.schema.strict import NonNegFloat, PosFloat, Strict, Vec3, Vec12, first_error, fixed_len
+from auvdock.schema.yamlio import load_yaml_strict
 from auvdock.sensing.settings import SensorSettings
 from auvdock.vehicle import preset_names
 from auvdock.vehicle.params import VehicleParams, VehicleParamsError, load_params

@@ -30,7 +30,7 @@ from typing import Annotated, Literal
 import numpy as np
 from pydantic import Field, model_validator
 
-from auvdock.config.schema import NonNegFloat, PosFloat, Strict
+from auvdock.schema.strict import NonNegFloat, PosFloat, Strict
 from auvdock.world.spectra import SpectrumFileError, jonswap, load_spectrum, realise, regular_wave
 from auvdock.world.waves import WaveComponents
 

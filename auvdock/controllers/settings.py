@@ -14,7 +14,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field, field_validator
 
-from auvdock.config.schema import NonNegFloat, PosFloat, Strict, Vec3Pos, Vec6Pos, Vec12NonNeg
+from auvdock.schema.strict import NonNegFloat, PosFloat, Strict, Vec3Pos, Vec6Pos, Vec12NonNeg
 
 __all__ = [
     "WeightsSpec",

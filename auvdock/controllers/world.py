@@ -1,6 +1,6 @@
 """What a controller is told of the world beyond its estimate: :class:`ControllerWorld`.
 
-Built once per run by :func:`auvdock.loop.autopilot.build_autopilot` from the mission:
+Built once per run by :func:`auvdock.loop.assemble.build_autopilot` from the mission:
 
 * ``entry`` -- the dock's entry corridor (:mod:`auvdock.controllers.entry`), from the dock's body
   as the mission charts it (every controller may know the dock's drawing);

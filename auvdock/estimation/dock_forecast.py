@@ -105,7 +105,7 @@ from typing import Annotated
 import numpy as np
 from pydantic import Field, model_validator
 
-from auvdock.config.schema import Strict
+from auvdock.schema.strict import Strict
 from auvdock.world.dock import TranslatingDock
 
 __all__ = ["DockForecastSettings", "DockForecast", "DockForecaster", "ForecastDock"]

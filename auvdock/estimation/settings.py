@@ -9,7 +9,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field
 
-from auvdock.config.schema import PosFloat, Strict, Vec3
+from auvdock.schema.strict import PosFloat, Strict, Vec3
 
 __all__ = ["EstimatorSettings", "NavigationSettings", "FORECAST_HORIZONS_S"]
 

@@ -3,7 +3,7 @@
 Every closed loop hands the stage one instant's :class:`~auvdock.sensing.readings.Readings`
 and hands every controller the stage's :class:`~auvdock.estimation.estimate.Estimate`; no
 controller reads a sensor.  Two stages, chosen by the mission's ``estimation``
-(:func:`build_estimation`):
+(:func:`auvdock.loop.assemble.build_estimation`):
 
 * :class:`TruthStage` (``estimation: truth``, the paper's Assumption 1): the state the
   readings carry (the truth in simulation, the autopilot's estimate on a vehicle) and the
@@ -53,7 +53,6 @@ from auvdock.vehicle.model import rk4
 from auvdock.vehicle.state import ANG, ATT, ETA, LIN, NX
 
 if TYPE_CHECKING:
-    from auvdock.config.mission import Mission
     from auvdock.estimation.dock_knowledge import TelemetryDock
     from auvdock.vehicle import Vehicle
     from auvdock.world.dock import DockMotion
@@ -64,12 +63,10 @@ __all__ = [
     "FORECAST_HORIZONS_S",
     "FORECAST_SERIES",
     "WAVE_SERIES",
-    "wave_model",
     "forecast_rmse_key",
     "EstimationStage",
     "TruthStage",
     "NavigationStage",
-    "build_estimation",
 ]
 
 #: ``estimation:`` values.
@@ -187,8 +184,8 @@ class NavigationStage:
         from the telemetry readings (kind ``dock_motion``), which this stage feeds it; it must be
         ``dock`` too (the filter's dock moves as forecast).
     waves : WaveModel, optional
-        The water's wave-frequency motion, as the filter models it (:func:`wave_model`); None: a
-        current only.
+        The water's wave-frequency motion, as the filter models it
+        (:func:`auvdock.loop.assemble.filter_wave_model`); None: a current only.
     """
 
     mode = "filter"
@@ -328,42 +325,3 @@ class NavigationStage:
             series["dock_forecast_m"] = position + offset
             series["dock_forecast_std_m"] = std
         return out, series
-
-
-def wave_model(mission: Mission) -> WaveModel | None:
-    """The wave model of a mission's navigation filter (``navigation.waves``): with ``auto`` and waves in
-    the sea, oscillators at the sea's mean frequency with its orbital spread at the start depth
-    (:meth:`auvdock.world.waves.WaveComponents.orbital_statistics`); else None."""
-    if mission.navigation.waves == "off" or mission.sea.waves is None:
-        return None
-    sea = mission.build_sea()
-    if sea is None:
-        return None
-    omega, std = sea.orbital_statistics(float(mission.start.state[2]))
-    if not math.isfinite(omega) or not float(np.max(std)) > 0:
-        return None
-    n, e, d = (float(v) for v in std)
-    return WaveModel(omega, mission.navigation.wave_damping_ratio, (n, e, d))
-
-
-def build_estimation(
-    mission: Mission, vehicle: Vehicle, dock: DockMotion | None = None, telemetry: TelemetryDock | None = None
-) -> EstimationStage:
-    """The estimation stage a mission's ``estimation`` names (one of :data:`ESTIMATION_MODES`);
-    ``dock`` the dock as the controller knows it (for the filter's dock states): the mission's chart,
-    or ``telemetry``, the dock forecast from its telemetry, which the stage then feeds."""
-    if mission.estimation == "filter":
-        mount = mission.camera.mount.build()
-        return NavigationStage(
-            mission.navigation,
-            vehicle,
-            mission.controller.dt_s,
-            mission.start_state(),
-            dock=dock,
-            camera_mount=(mount.R_bc(), mount.t_bc()),
-            telemetry=telemetry,
-            waves=wave_model(mission),
-        )
-    if telemetry is not None:
-        raise ValueError("sensors.dock_telemetry: the dock's forecast needs estimation: filter")
-    return TruthStage()

@@ -10,7 +10,7 @@ One session (:class:`FlySession`, :mod:`auvdock.fly.session`)::
 
 Only where measurements come from and where commands go differ from ``auvdock sim``: the
 controller-and-estimator step is the same :class:`auvdock.loop.autopilot.Autopilot`, built by
-:func:`auvdock.loop.autopilot.build_autopilot`.
+:func:`auvdock.loop.assemble.build_autopilot`.
 
 Modules: :mod:`~auvdock.fly.session` (the session's sequence and its ending),
 :mod:`~auvdock.fly.plant` (the vehicle as the closed loop's plant), :mod:`~auvdock.fly.safety`

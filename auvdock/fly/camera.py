@@ -1,8 +1,8 @@
 """Camera dock tracking inside a fly session (``dock.source: camera``).
 
 :class:`CameraTracking` owns the frame source (synthetic or a real camera), the detection
-thread (:class:`auvdock.camera.tracker.DockTracker`) and the lost-tracking state machine
-(:class:`auvdock.camera.tracker.TrackingMonitor`); every control step it feeds the new fixes
+thread (:class:`auvdock.fly.dock_tracker.DockTracker`) and the lost-tracking state machine
+(:class:`auvdock.fly.dock_tracker.TrackingMonitor`); every control step it feeds the new fixes
 to the dock filter and says whether the controller may steer (``tracking``), must hold
 neutral (``searching`` / ``holding``) or the session must abort (``lost``).
 """
@@ -21,8 +21,8 @@ from auvdock.vehicle.state import ETA
 from auvdock.world.dock import TrackedDock, TranslatingDock
 
 if TYPE_CHECKING:
-    from auvdock.camera.tracker import DockFix
     from auvdock.camera.video_in import FrameSource
+    from auvdock.fly.dock_tracker import DockFix
 
 __all__ = ["CAMERA_STATES", "CAMERA_SERIES", "CameraTracking", "CameraOpenError"]
 
@@ -68,7 +68,7 @@ class CameraTracking:
         clock: Clock,
         on_event: Callable[[str], None],
     ) -> None:
-        from auvdock.camera.tracker import DockTracker, SyntheticCamera, TrackingMonitor
+        from auvdock.fly.dock_tracker import DockTracker, SyntheticCamera, TrackingMonitor
 
         self.dock = dock
         self.clock = clock

@@ -180,7 +180,7 @@ class CameraSensor(DetectionLoop):
         self.source: FrameSource
         if self.synthetic:
             from auvdock.camera.render import Water
-            from auvdock.camera.tracker import SyntheticCamera
+            from auvdock.fly.dock_tracker import SyntheticCamera
 
             truth = _FollowingDock(mission.build_dock(truth=True), clocked_dock)
             self.source = SyntheticCamera(

@@ -99,7 +99,7 @@ from auvdock.fly.telemetry import (
 )
 from auvdock.fly.vehicle_io import VehicleIO
 from auvdock.loop import closed_loop
-from auvdock.loop.autopilot import build_autopilot
+from auvdock.loop.assemble import build_autopilot
 from auvdock.loop.stages import LoopResult, Progress, Stages, Verdict
 from auvdock.loop.verdict import CaptureVerdict, DockingRule, MarginVerdict
 from auvdock.runtime.clock import Clock

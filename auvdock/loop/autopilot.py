@@ -5,7 +5,7 @@ instant's :class:`~auvdock.sensing.readings.Readings` and the controller on its
 :class:`~auvdock.estimation.estimate.Estimate`.  Where the readings come from (the simulated
 sensors or a vehicle's telemetry) and where the thrust goes (the actuator path into the truth
 model or MAVLink) are the closed loop's business (:mod:`auvdock.loop.closed_loop`).
-:func:`build_autopilot` builds the step from a mission.
+:func:`auvdock.loop.assemble.build_autopilot` builds the step from a mission.
 """
 
 from __future__ import annotations
@@ -16,17 +16,15 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from auvdock.config.mission import Mission
+from auvdock.config.guidance import GuidanceSettings
 from auvdock.controllers import Controller, ControlOutput, build_controller, resolve_solver
-from auvdock.controllers.entry import EntryCorridor
 from auvdock.controllers.registry import CONTROLLERS
 from auvdock.controllers.settings import MPCSettings
 from auvdock.controllers.status import STATUS_LOST_TARGET, STATUS_SETTLING
 from auvdock.controllers.world import ControllerWorld
-from auvdock.estimation.dock_knowledge import TelemetryDock
 from auvdock.estimation.settings import EstimatorSettings
-from auvdock.estimation.stage import EstimationStage, TruthStage, build_estimation
-from auvdock.loop.guidance import GUIDANCE_SERIES, Guidance, GuidanceSettings
+from auvdock.estimation.stage import EstimationStage, TruthStage
+from auvdock.loop.guidance import GUIDANCE_SERIES, Guidance
 from auvdock.runtime import timing
 from auvdock.runtime.interrupts import SigintDeferred
 from auvdock.sensing.readings import Reading, Readings
@@ -39,7 +37,7 @@ if TYPE_CHECKING:
     from auvdock.loop.stages import LoopResult
     from auvdock.world.dock import DockMotion
 
-__all__ = ["Autopilot", "build_autopilot", "knows_dock_from_telemetry"]
+__all__ = ["Autopilot"]
 
 
 class Autopilot:
@@ -54,7 +52,7 @@ class Autopilot:
     estimator, sensors : EstimatorSettings, SensorSettings, optional
         The flow estimator's settings and the sensor noise it accounts for.
     estimation : EstimationStage, optional
-        The estimation stage (:func:`auvdock.estimation.stage.build_estimation`); default
+        The estimation stage (:func:`auvdock.loop.assemble.build_estimation`); default
         :class:`~auvdock.estimation.stage.TruthStage` (``estimation: truth``).
     guidance : Guidance, optional
         What the controllers steer to (:mod:`auvdock.loop.guidance`: the dock where the estimate
@@ -236,60 +234,3 @@ class Autopilot:
         self.u_prev = out.thrust.copy()
         self.u_applied = out.thrust.copy()
         return out
-
-
-def build_autopilot(
-    mission: Mission, vehicle: Vehicle, dock: DockMotion, controller: str | None = None
-) -> Autopilot:
-    """The autopilot a mission describes; ``controller`` overrides its type (shared settings kept).
-
-    The one way every command (sim, compare, sweep, fly, replay) builds its step.
-    """
-    m = mission if controller is None else mission.with_controller(controller)
-    camera = m.estimation == "filter" and m.sensors.dock_camera.enabled
-    known: DockMotion = dock
-    telemetry = None
-    if knows_dock_from_telemetry(m, m.controller.type):
-        telemetry = TelemetryDock(dock)  # the chart's anchor, the motion forecast from the telemetry
-        known = telemetry
-    world = controller_world(m, dock)
-    return Autopilot(
-        m.controller,
-        vehicle,
-        known,
-        m.estimator,
-        m.sensors,
-        build_estimation(m, vehicle, known, telemetry),
-        Guidance(m.guidance, known, camera, entry=world.entry is not None),
-        world,
-    )
-
-
-def controller_world(mission: Mission, dock: DockMotion) -> ControllerWorld:
-    """What the mission's controller is told beyond its estimate (:class:`ControllerWorld`): the dock's
-    entry corridor where :meth:`~auvdock.controllers.settings.MPCSettings.entry_enabled` (from the dock's
-    body, ``docking.criterion: capture``), and the realised sea for a controller that reads the truth
-    (Oracle).  ``dock``: the dock as built for the run (a WEC dock's buoy is part of its body)."""
-    settings = mission.controller
-    entry = None
-    contact = mission.build_contact(dock) if mission.docking.criterion == "capture" else None
-    if contact is not None and settings.entry_enabled(True):
-        body, hull, _ = contact
-        entry = EntryCorridor.for_dock(settings.entry, body, hull)
-    elif settings.entry.enabled and contact is None:
-        raise ValueError(
-            "controller.entry.enabled: the entry corridor needs the dock's body (docking.criterion: capture)"
-        )
-    sea = mission.build_sea() if CONTROLLERS[settings.type].reads_true_flow else None
-    return ControllerWorld(entry, sea)
-
-
-def knows_dock_from_telemetry(mission: Mission, controller: str) -> bool:
-    """Whether ``controller`` forecasts the dock's motion from the dock's telemetry in ``mission``
-    (``sensors.dock_telemetry``, ``estimation: filter``; every controller but one that reads the truth
-    by definition, Oracle) rather than being told it (Assumption 2)."""
-    return (
-        mission.estimation == "filter"
-        and mission.sensors.dock_telemetry.enabled
-        and not CONTROLLERS[controller].reads_true_flow
-    )

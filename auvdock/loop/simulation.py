@@ -29,18 +29,16 @@ import h5py
 import numpy as np
 
 from auvdock.config.mission import Mission
-from auvdock.controllers.hold import DepthAttitudeHold
 from auvdock.controllers.status import STATUS_NAMES
 from auvdock.loop import closed_loop
-from auvdock.loop.autopilot import Autopilot, build_autopilot
+from auvdock.loop.assemble import build_autopilot, simulated_stages, simulated_world
+from auvdock.loop.autopilot import Autopilot
 from auvdock.loop.recorder import LoopRecorder
-from auvdock.loop.simulated_plant import SimulatedPlant, SimulatedReadings
-from auvdock.loop.stages import Progress, Stages, Unsupervised
-from auvdock.loop.verdict import DockingRule
+from auvdock.loop.stages import Progress
 from auvdock.results.run import MemoryRecorder, Run
 from auvdock.results.store import RunWriter, flush_steps
 from auvdock.runtime.interrupts import SigintDeferred
-from auvdock.vehicle.actuators import ACTUATOR_PATHS, build_actuators
+from auvdock.vehicle.actuators import ACTUATOR_PATHS
 
 __all__ = ["RunSummary", "simulate", "idealisations"]
 
@@ -130,7 +128,7 @@ def simulate(
     autopilot : Autopilot, optional
         A prebuilt autopilot (e.g. with a nominal model that differs from the truth, or a
         modified solver), else built from the mission with
-        :func:`auvdock.loop.autopilot.build_autopilot`; its ``build_time_s`` is the run's
+        :func:`auvdock.loop.assemble.build_autopilot`; its ``build_time_s`` is the run's
         ``setup_time_s``.
     keep : bool
         Also keep every row in memory: the summary's ``run`` is then the whole
@@ -143,30 +141,17 @@ def simulate(
     """
     t_setup = time.perf_counter()
     with SigintDeferred():  # CasADi would swallow a Ctrl-C landing in the construction
-        vehicle = mission.build_vehicle()
-        flow = mission.build_flow()
-        sea = mission.build_sea()
-        chart = mission.build_dock(sea)  # the dock the controllers know (Assumption 2: its motion)
-        dock = mission.build_dock(sea, truth=True)  # where it really is (dock.position_std_m)
-        ap = autopilot or build_autopilot(mission, vehicle, chart, controller)
-        contact = mission.build_contact(dock)
-        plant = SimulatedPlant(mission, vehicle, flow, ap.dt, sea=sea, dock=dock, contact=contact)
-        readings = SimulatedReadings(mission, vehicle, ap.dt, dock)
-        actuators = build_actuators(mission.simulation.actuators, vehicle)
+        world = simulated_world(mission)
+        ap = autopilot or build_autopilot(mission, world.vehicle, world.chart, controller)
+        stages = simulated_stages(mission, world, ap)
     setup_s = time.perf_counter() - t_setup if autopilot is None else ap.build_time_s
     ap.reset()
     dt = ap.dt
+    vehicle, sea, dock, actuators = world.vehicle, world.sea, world.dock, stages.actuators
+    recorder = stages.recorder
+    assert isinstance(recorder, LoopRecorder)  # (the assembler's)
     timeout = mission.docking.timeout_s if timeout_s is None else float(timeout_s)
-    tol = mission.docking.tolerance_m if contact is None else None
-    recorder = LoopRecorder(
-        [],
-        vehicle=vehicle,
-        dock=dock,
-        extra_series=ap.extra_series,
-        plant_columns=plant.columns,
-        channels=actuators.name != "ideal",
-        capture=contact is not None,
-    )
+    tol = mission.docking.tolerance_m if world.contact is None else None
     meta: dict[str, Any] = dict(
         mission_yaml=mission.to_yaml(),
         mission_name=mission.name,
@@ -179,7 +164,7 @@ def simulate(
             "criterion": mission.docking.criterion,
             "timeout_s": timeout,
             "dt_s": dt,
-            "flow": flow.describe(),
+            "flow": world.flow.describe(),
             "vehicle": vehicle.name,
             "solver": ap.solver,
             "reads_true_flow": ap.reads_true_flow,
@@ -203,16 +188,6 @@ def simulate(
                 writer.write_sea(sea.to_arrays(), sea.attributes())
     recorder.sinks = [s for s in (writer, memory) if s is not None]
     try:
-        stages = Stages(
-            plant,
-            readings,
-            Unsupervised(),
-            ap,
-            actuators,
-            DockingRule(dock, tol),
-            recorder,
-            DepthAttitudeHold(vehicle, mission.fly.hold_bandwidth_rad_s),
-        )
         result = closed_loop.run_closed_loop(stages, timeout_s=timeout, progress=progress)
     except BaseException:  # Ctrl-C or an error: keep every finished step, complete = False
         if writer is not None:

@@ -49,8 +49,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from auvdock.config.guidance import GUIDANCE_PHASES
 from auvdock.estimation.settings import FORECAST_HORIZONS_S
-from auvdock.loop.guidance import GUIDANCE_PHASES
 from auvdock.results.store import (
     _RESERVED_ATTRS,
     BASE_SERIES,

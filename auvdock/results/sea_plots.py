@@ -96,7 +96,7 @@ def _dock_entry_figure(results: RunResults) -> Figure | None:
     if "nose_dock_m" not in ex or not results.mission_yaml:
         return None
     from auvdock.config.mission import parse_mission
-    from auvdock.config.yamlio import load_yaml_strict
+    from auvdock.schema.yamlio import load_yaml_strict
 
     try:
         m = parse_mission(load_yaml_strict(results.mission_yaml), "<results>")

@@ -42,10 +42,10 @@ from typing import TYPE_CHECKING
 import casadi as ca
 import numpy as np
 
+from auvdock.vehicle.constants import GRAVITY_M_S2
 from auvdock.vehicle.geometry import point_in_sensor_frame
 from auvdock.vehicle.model import Smtrx, Sym, VehicleModel
 from auvdock.vehicle.state import ANG, ATT, LIN, NX, POS
-from auvdock.world.constants import GRAVITY_M_S2
 
 if TYPE_CHECKING:
     from auvdock.vehicle import Vehicle

@@ -23,7 +23,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field
 
-from auvdock.config.schema import NonNegFloat, PosFloat, Strict
+from auvdock.schema.strict import NonNegFloat, PosFloat, Strict
 
 __all__ = [
     "SensorSettings",

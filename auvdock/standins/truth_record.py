@@ -12,7 +12,7 @@ frame), ``dock_position_m``, ``distance_m`` (the vehicle's body origin to the do
 vehicle's own clock (vehicle-sim's ``time_boot_ms``; sitl-physics' physics time, which SITL's clock
 follows in lockstep), which a
 flight records with each row (``vehicle_time_s``), so a flight is scored on the truth at the
-instants it flew (:mod:`auvdock.fly.truth_check`).  The outcome, written when the simulator stops:
+instants it flew (:mod:`auvdock.standins.truth_check`).  The outcome, written when the simulator stops:
 the closest approach while armed (m, and when), and the arming events.  A mission judged by capture
 (``docking.criterion: capture``) has the truth's contact with the dock's body in every row
 (``contact_status``: :data:`CONTACT_STATUSES`; ``nose_dock_m``), and the outcome the first instants the
@@ -86,7 +86,7 @@ class TruthContact:
         }
 
 
-#: The ``source`` attribute of every truth file (what :func:`auvdock.fly.truth_check.check_flight` reads).
+#: The ``source`` attribute of every truth file (read by :func:`auvdock.standins.truth_check.check_flight`).
 TRUTH_SOURCE = "vehicle-sim truth"
 
 #: A truth row every this long of the simulator's time, s.

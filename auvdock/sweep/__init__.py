@@ -69,7 +69,7 @@ Derived and coupled fields
   one value: varying one clears the other (HeaveSpec accepts both only when they agree).
 * ``seed`` and ``controller.type`` are set by ``seeds`` and ``controllers`` and cannot be
   varied; list values are varied whole (``dock.position_ned_m: [[2, 3, 5], [3, 3, 5]]``).
-  Controller settings are checked per controller type (:func:`auvdock.config.schema.field_at`).
+  Controller settings are checked per controller type (:func:`auvdock.schema.strict.field_at`).
 
 Model error
 -----------

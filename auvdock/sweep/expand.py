@@ -22,7 +22,7 @@ from pydantic import ValidationError
 
 from auvdock.campaign.spec import Plan, RunSpec, mission_data
 from auvdock.config.mission import Mission
-from auvdock.config.schema import first_error
+from auvdock.schema.strict import first_error
 from auvdock.sweep.schema import DERIVED_FIELDS, Sweep, SweepError
 
 __all__ = ["expand_sweep", "label_columns", "sweep_plan"]

@@ -8,7 +8,7 @@ from pydantic import ValidationError
 
 from auvdock.config.catalog import resolve
 from auvdock.config.mission import MissionError, load_mission, read_yaml_file
-from auvdock.config.schema import first_error
+from auvdock.schema.strict import first_error
 from auvdock.sweep.expand import expand_sweep
 from auvdock.sweep.schema import Sweep, SweepError, check_fields
 

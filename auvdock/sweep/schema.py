@@ -1,9 +1,9 @@
 """The sweep file: its schema, loading, and the checks of the mission fields it varies.
 
 See :mod:`auvdock.sweep` for the file format.  :func:`auvdock.sweep.load.load_sweep` validates a sweep file
-like a mission (:mod:`auvdock.config.schema`: strict keys, one-line errors) and raises
+like a mission (:mod:`auvdock.schema.strict`: strict keys, one-line errors) and raises
 :class:`SweepError` -- ``<file>: <field.path>: <problem>`` -- on any bad input: unknown
-keys, unknown mission fields (checked with :func:`auvdock.config.schema.field_at`, which knows the
+keys, unknown mission fields (checked with :func:`auvdock.schema.strict.field_at`, which knows the
 controller's settings per ``type``), bad distributions, a base mission that is missing or
 invalid, and the first expanded mission that does not validate.
 """
@@ -19,8 +19,8 @@ import numpy as np
 from pydantic import Field, field_validator, model_validator
 
 from auvdock.config.mission import CONTROLLER_TYPES, Mission, MissionError
-from auvdock.config.schema import Strict, field_at
 from auvdock.controllers.registry import split_controller
+from auvdock.schema.strict import Strict, field_at
 
 __all__ = [
     "DERIVED_FIELDS",

@@ -49,11 +49,11 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from auvdock.vehicle.constants import GRAVITY_M_S2
 from auvdock.vehicle.geometry import skew, zyx_entries
 from auvdock.vehicle.params import VehicleParams
 from auvdock.vehicle.state import ANG, ETA, NU, NX
 from auvdock.vehicle.thrusters import allocation_matrix
-from auvdock.world.constants import GRAVITY_M_S2
 
 __all__ = [
     "Smtrx",

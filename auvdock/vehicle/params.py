@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from auvdock.config.yamlio import load_yaml_strict
+from auvdock.schema.yamlio import load_yaml_strict
 from auvdock.vehicle.thrusters import ThrusterCurve
 
 __all__ = ["VehicleParams", "VehicleParamsError", "preset_names", "load_params", "deep_merge"]

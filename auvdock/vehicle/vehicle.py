@@ -16,7 +16,7 @@ T1..Tn (N), n from the vehicle file; ``flow_ned`` = water velocity (north, east,
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import casadi as ca
 import numpy as np
@@ -26,8 +26,13 @@ from auvdock.vehicle.params import VehicleParams, load_params
 from auvdock.vehicle.state import ETA, LIN, NX, POS
 from auvdock.vehicle.thrusters import ThrusterCurve
 
-if TYPE_CHECKING:
-    from auvdock.world.flow import FlowField
+
+class FlowField(Protocol):
+    """The current as the model reads it: a field in CasADi (:class:`auvdock.world.flow.FlowField`)."""
+
+    def symbolic(self, p_ned: Any, t: Any) -> Any:
+        """The current (3,) in {n}, m/s, at position ``p_ned`` (3,) in {n}, m, and time ``t``, s (CasADi)."""
+        ...
 
 __all__ = ["Vehicle", "load_vehicle"]
 

@@ -53,8 +53,8 @@ from typing import TYPE_CHECKING
 import casadi as ca
 import numpy as np
 
-from auvdock.sensing.measurements import GRAVITY
 from auvdock.vehicle import Vehicle
+from auvdock.vehicle.constants import GRAVITY_M_S2
 from auvdock.vehicle.geometry import rotation_zyx
 from auvdock.vehicle.state import ANG, LIN, NX
 
@@ -64,7 +64,7 @@ if TYPE_CHECKING:
 
 __all__ = ["TruthPlant"]
 
-_G_N = np.array([0.0, 0.0, GRAVITY])
+_G_N = np.array([0.0, 0.0, GRAVITY_M_S2])
 
 
 class TruthPlant:

@@ -40,7 +40,7 @@ from typing import Any
 
 import numpy as np
 
-from auvdock.world.constants import GRAVITY_M_S2
+from auvdock.vehicle.constants import GRAVITY_M_S2
 
 __all__ = [
     "GRAVITY_M_S2",

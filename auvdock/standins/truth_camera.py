@@ -1,7 +1,7 @@
 """The synthetic camera's view of a simulated vehicle, streamed as RTP/H.264 the way BlueOS streams a camera.
 
 :class:`TruthCameraStream` renders the dock's markers as the vehicle's camera sees them from
-the vehicle's **true** pose (:meth:`auvdock.camera.tracker.SyntheticCamera.render`: the
+the vehicle's **true** pose (:meth:`auvdock.fly.dock_tracker.SyntheticCamera.render`: the
 mission's camera model, mount, markers, dock and ``camera.synthetic`` settings) and sends
 the frames with :func:`auvdock.camera.video_out.stream_rtp` in a thread.  A ``fly`` session
 whose mission has ``camera.source: udp:PORT`` receives them exactly as it would from a
@@ -25,8 +25,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from auvdock.camera.tracker import SyntheticCamera
 from auvdock.camera.video_out import stream_rtp
+from auvdock.fly.dock_tracker import SyntheticCamera
 from auvdock.runtime.clock import Clock, wall_clock
 
 if TYPE_CHECKING:
