@@ -10,19 +10,18 @@ from helpers.loopback import free_udp_pair
 from test_camera import COLS, ROWS, _board_views
 from typer.testing import CliRunner
 
-import auvdock.cli.camera as camera_cli
 from auvdock.camera.calibration import NoVideoError, collect_views
 from auvdock.camera.video_in import Frame
 from auvdock.cli import app
+from auvdock.cli.app import Runtime
 from auvdock.runtime.clock import SimClock
 
 runner = CliRunner()
 
 
 @pytest.fixture
-def sim_clock(monkeypatch: pytest.MonkeyPatch):
+def sim_clock():
     with SimClock() as clock:
-        monkeypatch.setattr(camera_cli, "clock", clock)
         yield clock
 
 
@@ -33,7 +32,7 @@ def test_no_stream_on_the_port_ends_with_one_line_after_the_wait(
     port = free_udp_pair()
     spec = f"udp:127.0.0.1:{port}"
     args = ["calibrate", spec, "--board", "9x6", "--square", "0.025"]
-    res = runner.invoke(app, args + ([] if wait is None else ["--wait", str(wait)]))
+    res = runner.invoke(app, args + ([] if wait is None else ["--wait", str(wait)]), obj=Runtime(sim_clock))
     limit = 30.0 if wait is None else wait
     assert res.exit_code == 2, res.output + res.stderr
     assert res.stderr == (

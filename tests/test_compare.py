@@ -261,7 +261,7 @@ def test_exception_in_run_is_recorded_not_raised() -> None:
 def _driver(args: list[str], cwd: Path) -> subprocess.Popen:
     env = {**os.environ, "AUVDOCK_COMPILE": "never", "COLUMNS": "200"}
     return subprocess.Popen(
-        [sys.executable, "-m", "auvdock.cli", *args],
+        [sys.executable, "-m", "auvdock", *args],
         cwd=cwd,
         env=env,
         stdout=subprocess.PIPE,

@@ -120,7 +120,7 @@ def _started_ignoring_sigint(args: list[str], cwd: Path) -> subprocess.Popen:
     """``auvdock ARGS`` as a background job of a script starts it: with SIGINT ignored (inherited)."""
     env = {**os.environ, "AUVDOCK_COMPILE": "never", "COLUMNS": "200"}
     return subprocess.Popen(
-        [sys.executable, "-m", "auvdock.cli", *args],
+        [sys.executable, "-m", "auvdock", *args],
         cwd=cwd,
         env=env,
         stdout=subprocess.PIPE,

@@ -258,7 +258,7 @@ def test_vehicle_sim_stopped_by_a_signal_completes_its_truth_file(tmp_path, sign
     truth = tmp_path / "truth.h5"
     env = {**os.environ, "AUVDOCK_COMPILE": "never", "PYTHONUNBUFFERED": "1"}
     env["PYTHONPATH"] = os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])
-    cmd = [sys.executable, "-m", "auvdock.cli", "vehicle-sim", "tank_positioned",
+    cmd = [sys.executable, "-m", "auvdock", "vehicle-sim", "tank_positioned",
            "--port", f"udpout:{HOST}:{free_port()}", "--truth-out", str(truth)]  # fmt: skip
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
     try:

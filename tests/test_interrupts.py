@@ -29,7 +29,7 @@ STEPS = sorted(random.Random(1234).sample(range(1, 60), 3))  # [8, 29, 50]
 
 MOMENTS = [
     pytest.param("import:auvdock.cli.campaign", id="loading-the-commands"),
-    pytest.param("call:auvdock.loop.autopilot:build_autopilot", id="building-the-controller"),
+    pytest.param("call:auvdock.loop.assemble:build_autopilot", id="building-the-controller"),
     pytest.param("call:auvdock.loop.simulation:simulate", id="starting-the-run"),
     *[pytest.param(f"sim-step:{k}", id=f"after-step-{k}") for k in [0, *STEPS]],
     pytest.param("call:auvdock.results.store:RunWriter.finish", id="writing-the-outcome"),
@@ -61,7 +61,7 @@ def test_sim_sigint_at_every_moment(moment: str, tmp_path: Path) -> None:
     if h5.exists():  # whatever the moment, what is on disk reads back
         r = read_run(h5)
         assert r.state.shape == (r.n_steps, 12) and np.all(np.isfinite(r.state)), what
-    if moment.startswith(("import:", "call:auvdock.loop.autopilot:")):  # before the run: no file
+    if moment.startswith(("import:", "call:auvdock.loop.assemble:")):  # before the run: no file
         assert lines == ["interrupted"] and not h5.exists(), what
     elif moment == "call:auvdock.loop.simulation:simulate":
         assert lines == ["interrupted before the first step: no results file was written"], what

@@ -1,5 +1,6 @@
-"""The house rules that a reader cannot see at a glance: no import cycles between modules,
-and the missions and sweeps installed with the package."""
+"""The house rules that a reader cannot see at a glance: no import cycles between modules, the
+subpackages in floors (each imports only from the floors below it), and the missions and sweeps
+installed with the package."""
 
 from __future__ import annotations
 
@@ -25,18 +26,13 @@ def _module_name(path: Path) -> str:
 
 
 def _imports(path: Path, name: str, modules: set[str]) -> set[str]:
-    """auvdock modules that ``name`` imports anywhere (module level or inside functions),
-    except under ``if TYPE_CHECKING``.  ``from pkg import sub`` counts as importing ``pkg.sub``."""
+    """auvdock modules that ``name`` imports anywhere: at module level, inside functions (lazy) and
+    under ``if TYPE_CHECKING`` (for the types only).  ``from pkg import sub`` counts as importing
+    ``pkg.sub``."""
     tree = ast.parse(path.read_text())
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
-    skip: set[int] = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
-            skip.update(id(n) for child in node.body for n in ast.walk(child))
     out: set[str] = set()
     for node in ast.walk(tree):
-        if id(node) in skip:
-            continue
         if isinstance(node, ast.Import):
             out.update(a.name for a in node.names if a.name.startswith("auvdock"))
         elif isinstance(node, ast.ImportFrom):
@@ -55,14 +51,20 @@ def _imports(path: Path, name: str, modules: set[str]) -> set[str]:
     return out & modules
 
 
+def _graph() -> dict[str, set[str]]:
+    """Every auvdock module -> the auvdock modules it imports (see :func:`_imports`)."""
+    files = {_module_name(p): p for p in PKG.rglob("*.py")}
+    names = set(files)
+    return {name: _imports(path, name, names) - {name} for name, path in files.items()}
+
+
 def test_no_import_cycles() -> None:
-    """No module depends on itself through others, deferred (function-level) imports included.
+    """No module depends on itself through others, deferred (function-level) and type-only imports
+    included.
 
     A package's ``__init__`` may re-export its submodules, so a submodule never imports its
     own package back (it imports the sibling that holds the name)."""
-    files = {_module_name(p): p for p in PKG.rglob("*.py")}
-    names = set(files)
-    graph = {name: _imports(path, name, names) - {name} for name, path in files.items()}
+    graph = _graph()
     cycles: list[list[str]] = []
     state: dict[str, int] = {}
     stack: list[str] = []
@@ -82,6 +84,44 @@ def test_no_import_cycles() -> None:
         if n not in state:
             dfs(n)
     assert not cycles, "import cycles:\n" + "\n".join(" -> ".join(c) for c in cycles)
+
+
+#: The subpackages in floors, the ground first: a module imports only from its own subpackage and from
+#: the floors below (lazy and type-only imports included).  ``auvdock`` itself (the library's entry,
+#: ``api``, ``__main__``) stands on top.
+FLOORS: list[set[str]] = [
+    {"runtime", "schema"},  # the clock, Ctrl-C, compiled code; strict YAML and the settings' base
+    {"vehicle"},  # the one model
+    {"world", "camera"},  # the current, the sea, the dock; the camera's model, images and poses
+    {"sensing"},  # each measurement once, and the simulated sensors
+    {"estimation"},  # the estimation stage
+    {"controllers"},  # the controllers
+    {"config"},  # the mission: every stage's settings gathered, validated, built
+    {"results"},  # results files and the run type
+    {"loop"},  # the stages, the one closed loop, the assembler, sim
+    {"campaign", "fly"},  # many runs; a vehicle over MAVLink
+    {"sweep", "standins"},  # sweeps; the stand-in vehicles
+    {"cli"},  # the command line
+]
+
+
+def test_the_subpackages_stand_in_floors() -> None:
+    """No subpackage knot: every import between subpackages goes down the floors."""
+    floor = {pkg: i for i, names in enumerate(FLOORS) for pkg in names}
+    subpackages = {p.name for p in PKG.iterdir() if (p / "__init__.py").exists()}
+    assert subpackages == set(floor), f"subpackages without a floor: {subpackages ^ set(floor)}"
+    wrong = []
+    for module, imported in sorted(_graph().items()):
+        mine = module.split(".")[1] if module.count(".") else ""
+        if mine not in floor:
+            continue  # the top: auvdock, auvdock.api, auvdock.__main__, auvdock._version
+        for other in sorted(imported):
+            theirs = other.split(".")[1] if other.count(".") else ""
+            if theirs == mine or theirs == "_version":  # its own subpackage; the version string (a leaf)
+                continue
+            if theirs not in floor or floor[theirs] >= floor[mine]:
+                wrong.append(f"{module} -> {other}")
+    assert not wrong, "imports that do not go down the floors:\n" + "\n".join(wrong)
 
 
 def test_shipped_missions_are_in_the_package() -> None:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import typer
@@ -16,6 +17,7 @@ from rich.console import Console
 
 from auvdock._version import __version__
 from auvdock.config.mission import Mission, MissionError, load_mission
+from auvdock.runtime.clock import Clock, wall_clock
 
 
 def _usage_name(self) -> str:  # noqa: ANN001 -- a method of typer.core.TyperArgument
@@ -45,6 +47,21 @@ app = typer.Typer(
 # piece of user text printed with markup on goes through :func:`rich.markup.escape`
 console = Console(emoji=False)
 err_console = Console(stderr=True, emoji=False)
+
+
+@dataclass(frozen=True)
+class Runtime:
+    """What the commands wait and pace on, handed in by whoever runs them: the wall clock by default; a
+    test runs a command in simulated time with ``CliRunner().invoke(app, args, obj=Runtime(sim_clock))``
+    (``fly`` beside an in-process vehicle simulator on the same :class:`~auvdock.runtime.clock.SimClock`)."""
+
+    clock: Clock = wall_clock
+
+
+def runtime(ctx: typer.Context) -> Runtime:
+    """The :class:`Runtime` the command line was invoked with (the default one if none)."""
+    obj = ctx.find_root().obj
+    return obj if isinstance(obj, Runtime) else Runtime()
 
 
 #: Set once a command has said why it stopped on Ctrl-C (see :func:`exit_interrupted`).

@@ -1,10 +1,10 @@
 """``auvdock markers`` and ``auvdock calibrate``: the dock's marker sheet and the camera file.
 
 ``markers`` tiles the dock's panel at true scale over A4 or Letter pages (``--paper``), in the format the
-``--out`` suffix names (PDF, PNG, JPEG). A live calibration waits on :data:`clock` (the wall clock; a test
-may set a :class:`auvdock.runtime.clock.SimClock`): for the first frame at most ``--wait`` seconds,
-saying every 5 s
-what it waits for, then exits 2 with one line if no video came.
+``--out`` suffix names (PDF, PNG, JPEG). A live calibration waits on the command line's clock
+(:class:`auvdock.cli.app.Runtime`: the wall clock; a test may hand in a
+:class:`auvdock.runtime.clock.SimClock`): for the first frame at most ``--wait`` seconds, saying every
+5 s what it waits for, then exits 2 with one line if no video came.
 """
 
 from __future__ import annotations
@@ -16,11 +16,7 @@ import yaml
 from rich import box
 from rich.table import Table
 
-from auvdock.cli.app import app, console, exit_interrupted, fail_input, load_or_exit, output_dir
-from auvdock.runtime.clock import Clock, wall_clock
-
-#: The clock a live calibration waits on.
-clock: Clock = wall_clock
+from auvdock.cli.app import app, console, exit_interrupted, fail_input, load_or_exit, output_dir, runtime
 
 
 def _load_layout(path: Path):
@@ -153,6 +149,7 @@ def _live_names(src: object) -> tuple[str, str, str]:
 
 @app.command()
 def calibrate(
+    ctx: typer.Context,
     source: str = typer.Argument(
         ..., help="Folder of images, a video file, or a live camera (udp:5600, /dev/video0, v4l2:0)."
     ),
@@ -176,6 +173,7 @@ def calibrate(
     every: int = typer.Option(1, "--every", min=1, help="Video file: use every Nth frame."),
 ) -> None:
     """OpenCV checkerboard calibration: writes the camera file missions point to (camera.calibration)."""
+    clock = runtime(ctx).clock
     from auvdock.camera.calibration import NoVideoError, collect_views
     from auvdock.camera.calibration import calibrate as run_calibration
     from auvdock.camera.image_files import image_sources

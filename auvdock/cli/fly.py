@@ -1,9 +1,8 @@
 """``auvdock fly`` and ``auvdock vehicle-sim``: the MAVLink vehicle and its rehearsal.
 
-Both run on :data:`clock`, the wall clock.  Tests replace it with a
-:class:`auvdock.runtime.clock.SimClock` shared with an in-process vehicle simulator
-(``monkeypatch.setattr(auvdock.cli.fly, "clock", sim_clock)``) to run the commands in
-simulated time.
+Both run on the command line's clock (:class:`auvdock.cli.app.Runtime`: the wall clock; a test
+invokes them with a :class:`auvdock.runtime.clock.SimClock` shared with an in-process vehicle
+simulator, to run them in simulated time).
 """
 
 from __future__ import annotations
@@ -28,10 +27,10 @@ from auvdock.cli.app import (
     output_dir,
     output_file,
     positive_timeout,
+    runtime,
     water_line,
 )
 from auvdock.config.mission import Mission, MissionError
-from auvdock.runtime.clock import Clock, wall_clock
 from auvdock.runtime.interrupts import interrupt_name
 
 #: vehicle-sim's log of received messages (``VehicleSim.received``, a test hook): the last this many, so
@@ -39,11 +38,9 @@ from auvdock.runtime.interrupts import interrupt_name
 RECEIVED_LOG = 2_000
 
 if TYPE_CHECKING:
+    from auvdock.runtime.clock import Clock
     from auvdock.standins.truth_camera import TruthCameraStream
     from auvdock.standins.vehicle_sim import VehicleSim
-
-#: The clock ``fly`` and ``vehicle-sim`` wait and pace on.
-clock: Clock = wall_clock
 
 
 def _camera_line(path: Path) -> str:
@@ -96,6 +93,7 @@ def _pace_line(path: Path) -> str:
 
 @app.command()
 def fly(
+    ctx: typer.Context,
     mission: Path = typer.Argument(..., help="Mission YAML file or shipped mission name (tank_positioned)."),
     port: str = typer.Option(
         "udp:14550",
@@ -133,6 +131,7 @@ def fly(
     someone else takes the vehicle.  Exit status: 0 docked, 1 not docked in time, 2 bad input,
     3 aborted (a check, a limit, lost telemetry, arming refused), 4 takeover, 130 Ctrl-C.
     """
+    clock = runtime(ctx).clock
     from auvdock.fly import FlySession
     from auvdock.fly.link import MavlinkLink, connection_string
     from auvdock.fly.session import check_flyable
@@ -226,6 +225,7 @@ def fly(
 
 @app.command("vehicle-sim")
 def vehicle_sim(
+    ctx: typer.Context,
     mission: Path | None = typer.Argument(
         None, help="Mission YAML file or name: start state, vehicle and flow (default: tank_positioned)."
     ),
@@ -263,6 +263,7 @@ def vehicle_sim(
     ),
 ) -> None:
     """Run auvdock's 6-DOF simulator as an ArduSub MAVLink vehicle (for rehearsing and testing fly)."""
+    clock = runtime(ctx).clock
     from auvdock.cli.sitl import parse_camera_target
     from auvdock.config.catalog import missions_dir
     from auvdock.fly.link import check_host, connection_string
@@ -310,7 +311,7 @@ def vehicle_sim(
                 received_maxlen=RECEIVED_LOG,
             )
             if target is not None:
-                stream = _truth_camera(m, sim, target, camera)
+                stream = _truth_camera(m, sim, target, camera, clock)
                 said = f"camera: {stream.description}"
                 console.print(said, markup=False, highlight=False, soft_wrap=True)
         except KeyboardInterrupt:  # before the simulator started: its truth file is not yet created
@@ -332,7 +333,7 @@ def vehicle_sim(
 
 
 def _truth_camera(
-    m: Mission, sim: VehicleSim, target: tuple[str, int], option: str | None
+    m: Mission, sim: VehicleSim, target: tuple[str, int], option: str | None, clock: Clock
 ) -> TruthCameraStream:
     """vehicle-sim's --camera: the view of its true pose as RTP/H.264 (exit 2 on a bad camera or encoder)."""
     from auvdock.camera.video_common import VideoSourceError

@@ -12,7 +12,8 @@ connected or restarted, the vehicle released), a status line every
 bad input (one line: the mission, ``--listen`` or ``--camera`` and the problem), 130 on
 Ctrl-C (one line: the summary), 1 if the server failed at run time.
 
-The command waits on :data:`clock` (the wall clock; tests may replace it).
+The command waits on the command line's clock (:class:`auvdock.cli.app.Runtime`: the wall clock; tests
+hand in a simulated one).
 """
 
 from __future__ import annotations
@@ -25,18 +26,24 @@ from typing import TYPE_CHECKING
 
 import typer
 
-from auvdock.cli.app import app, console, err_console, exit_interrupted, fail_input, load_or_exit, output_file
+from auvdock.cli.app import (
+    app,
+    console,
+    err_console,
+    exit_interrupted,
+    fail_input,
+    load_or_exit,
+    output_file,
+    runtime,
+)
 from auvdock.config.mission import MissionError
-from auvdock.runtime.clock import Clock, wall_clock
 from auvdock.runtime.interrupts import interrupt_name
 
 if TYPE_CHECKING:
     from auvdock.standins.sitl_physics import PhysicsEvent, SitlPhysics
     from auvdock.standins.truth_camera import TruthCameraStream
 
-#: The clock ``sitl-physics`` waits on.
-clock: Clock = wall_clock
-#: Seconds (on :data:`clock`) between status lines.
+#: Seconds (on the command's clock) between status lines.
 STATUS_PERIOD_S = 5.0
 
 _CAMERA = re.compile(r"udp:(?:(?P<host>[^:\s]+):)?(?P<port>\d+)")
@@ -85,6 +92,7 @@ def _line(text: str) -> None:
 
 @app.command("sitl-physics")
 def sitl_physics(
+    ctx: typer.Context,
     mission: Path = typer.Argument(..., help="Mission YAML file or name (vehicle, flow, start, dock)."),
     listen: str = typer.Option(
         "127.0.0.1:9002",
@@ -119,6 +127,7 @@ def sitl_physics(
     ),
 ) -> None:
     """Be the physics of ArduPilot SITL (ardusub --model JSON): the real ArduSub flies in auvdock's ocean."""
+    clock = runtime(ctx).clock
     from auvdock.fly.link import check_host
     from auvdock.standins.sitl_physics import SitlPhysics, parse_listen
 

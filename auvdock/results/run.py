@@ -258,7 +258,8 @@ _KNOWN: dict[str, _Info] = {
         "m/s",
         "NED {n}",
         "true water velocity",
-        f"true water velocity at the vehicle (the current, plus the waves' orbital velocity in a sea), {_N}",
+        f"true water velocity at the vehicle (the current, plus the waves' orbital velocity in a sea), {_N}; "
+        "NaN where unknown (fly, replay)",
     ),
     "dock_position_m": _Info(
         _NED_AXIS, "m", "NED {n}", "dock position", f"position of the docking point {_N}"
@@ -473,6 +474,13 @@ _KNOWN: dict[str, _Info] = {
     ),
     "camera_fixes": _Info((), "", "", "camera fixes", "camera fixes received during the step"),
     "camera_frames": _Info((), "", "", "camera frames", "camera frames the detection took during the step"),
+    "flow_model_ned_m_s": _Info(
+        _NED_AXIS,
+        "m/s",
+        "NED {n}",
+        "flow model",
+        "the mission's flow model at the vehicle's estimated position (a vehicle: the true water is unknown)",
+    ),
     "loop_late_s": _Info(
         (), "s", "", "step lateness", "how late the control step started on the session's clock (0 on time)"
     ),

@@ -3,7 +3,7 @@
 One :class:`Loopback` per test: a SimClock whose first participant is the test's thread,
 vehicle simulators started on it (their threads are participants too), and the ``fly``
 command run in the test's thread through the CLI with the same clock
-(``auvdock.cli.fly.clock``), so that the vehicle, the link's threads, the camera threads
+(``obj=Runtime(clock)``), so that the vehicle, the link's threads, the camera threads
 and the control loop run in lockstep, as fast as the machine computes, deterministically.
 MAVLink still goes over real UDP sockets on 127.0.0.1 (the clock counts the datagrams, so a
 message sent at simulated time t is read at t).
@@ -21,8 +21,8 @@ from typing import Any
 import yaml
 from typer.testing import CliRunner
 
-import auvdock.cli.fly as cli_fly
 from auvdock.cli import app
+from auvdock.cli.app import Runtime
 from auvdock.config.mission import load_mission
 from auvdock.runtime.clock import SimClock
 from auvdock.standins.link_relay import Impairment, LinkRelay
@@ -78,7 +78,6 @@ class Loopback:
         self.sims: list[VehicleSim] = []
         self.relays: list[LinkRelay] = []
         self.runner = CliRunner()
-        monkeypatch.setattr(cli_fly, "clock", self.clock)
 
     def vehicle(self, mission: Path | Any = TANK, **kwargs: Any) -> tuple[VehicleSim, int]:
         """A started VehicleSim on ``udpout:127.0.0.1:PORT`` (fly listens there) and PORT."""
@@ -109,7 +108,7 @@ class Loopback:
     def fly(self, port: int, out: Path, *extra: str, mission: Path = TANK) -> Any:
         """``auvdock fly MISSION --port udpin:127.0.0.1:PORT --out OUT EXTRA...`` (a CliRunner result)."""
         args = ["fly", str(mission), "--port", f"udpin:{HOST}:{port}", "--out", str(out), *extra]
-        return self.runner.invoke(app, args)
+        return self.runner.invoke(app, args, obj=Runtime(self.clock))
 
     def close(self) -> None:
         try:
