@@ -281,6 +281,13 @@ class NavigationStage:
             pred = np.asarray(self._predict(x_prev, mean_thrust(u_applied), flow_prev)).ravel()
             accel = (pred[LIN] - x_prev[LIN]) / self.dt
         self._prev = (x.copy(), flow_ned.copy())
+        # Two estimators of one current, kept with their reason: the FSE controllers run their own flow
+        # filter (the paper's, IV.A) after this one, on this filter's estimate handed over as their
+        # sensing of [eta; nu_r], because their exploration term (the gramian's information) and the
+        # robust variant's weight are defined on that filter.  The two errors are correlated: the
+        # information term is scaled by the share of the current's uncertainty this filter has left
+        # (``current_uncertainty``).  One estimator per run (the FSE information computed on this
+        # filter's covariance) would change the outcome of every filter mission; it is not done here.
         sensing = FlowSensing(
             pose=x[ETA].copy(),
             gyro_rad_s=x[ANG].copy(),
