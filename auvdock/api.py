@@ -177,7 +177,7 @@ def simulate(
 
 def _run(mission: Mission) -> Run:
     """Fly ``mission`` in the closed loop and return the run: the one place that runs it."""
-    from auvdock.loop.simulation import simulate as run_loop
+    from auvdock.loop.simulation import run_simulation as run_loop
 
     run = run_loop(mission, keep=True).run
     assert run is not None

@@ -12,7 +12,7 @@ import argparse
 from pathlib import Path
 
 from auvdock.config.mission import load_mission
-from auvdock.loop.simulation import simulate
+from auvdock.loop.simulation import run_simulation
 
 ROOT = Path(__file__).resolve().parents[1]
 CASE_FILES = {1: "still", 2: "diagonal", 3: "south", 4: "east_strong", 5: "gyre", 6: "gyre_fast"}
@@ -35,7 +35,7 @@ def main() -> None:
         runs.insert(0, ("sequential", 0.0))
     for ctrl, alpha in runs:
         m = base.with_updates(**{"controller.type": ctrl, "controller.alpha": alpha})
-        o = simulate(m, timeout_s=args.timeout).outcome
+        o = run_simulation(m, timeout_s=args.timeout).outcome
         t = f"{o['time_to_dock_s']:.2f}" if o["docked"] else "timeout"
         print(
             f"{ctrl:<11} {alpha:8.1e} {str(o['docked']):<6} {t:>8} {o['path_length_m']:7.2f} "

@@ -5,7 +5,7 @@ What is compared
 The Oracle MPC of auvdock (:class:`auvdock.controllers.mpc.DockingMPC`, prediction "full",
 the true flow at the vehicle held constant over the horizon) and the same optimal control
 problem built with do-mpc (https://www.do-mpc.com), all flown closed loop on the same paper
-case by auvdock's own simulator (:func:`auvdock.loop.simulation.simulate`): same truth model,
+case by auvdock's own simulator (:func:`auvdock.loop.simulation.run_simulation`): same truth model,
 flow field, dock, start state, control period and timeout.  A do-mpc MPC is wrapped in a
 controller with auvdock's interface (``name``, ``reset()``, ``step(estimate, u_prev)``) and put
 in place of the controller of an :class:`auvdock.loop.autopilot.Autopilot`.
@@ -171,7 +171,7 @@ from auvdock.controllers.mpc import DockingMPC, shift_solution
 from auvdock.controllers.solvers import IPOPT_OPTIONS
 from auvdock.controllers.status import STATUS_FAILED, STATUS_NAMES, STATUS_NOT_CONVERGED, STATUS_OK
 from auvdock.loop.autopilot import Autopilot
-from auvdock.loop.simulation import RunSummary, simulate
+from auvdock.loop.simulation import RunSummary, run_simulation
 from auvdock.sensing.readings import Readings
 from auvdock.vehicle.model import rk4
 
@@ -623,7 +623,7 @@ def build_dompc(key: str, mission: Mission, vrel_constraint: str, workdir: Path)
 
 
 def run_round(mission: Mission, c: Contender, timeout: float) -> None:
-    s = simulate(mission, autopilot=c.autopilot, timeout_s=timeout)
+    s = run_simulation(mission, autopilot=c.autopilot, timeout_s=timeout)
     o = s.outcome
     ap = c.autopilot
     c.times_s.append(np.asarray(s.solve_times_s, dtype=float))

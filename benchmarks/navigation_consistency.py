@@ -168,7 +168,7 @@ def _sim_run(args: tuple[str, str, int]) -> tuple[np.ndarray, np.ndarray, np.nda
     from auvdock.config.mission import load_mission
     from auvdock.estimation.navigation_filter import NZ
     from auvdock.loop.assemble import build_autopilot
-    from auvdock.loop.simulation import simulate
+    from auvdock.loop.simulation import run_simulation
     from auvdock.results.store import read_run
     from auvdock.sensing.simulated import SensorSuite
     from auvdock.vehicle.state import NX, POS, YAW
@@ -177,7 +177,7 @@ def _sim_run(args: tuple[str, str, int]) -> tuple[np.ndarray, np.ndarray, np.nda
     vehicle, dock, flow = m.build_vehicle(), m.build_dock(), m.build_flow()
     true_dock = np.asarray(m.build_dock(truth=True).position_ned_m, dtype=float)
     ap = build_autopilot(m, vehicle, dock, controller)
-    # the suite simulate() builds draws the same biases from the same seed
+    # the suite run_simulation() builds draws the same biases from the same seed
     bias = {c.kind: c.bias for c in SensorSuite(m.sensors, vehicle, m.seed).channels}
     stage = ap.navigation
     assert stage is not None
@@ -191,7 +191,7 @@ def _sim_run(args: tuple[str, str, int]) -> tuple[np.ndarray, np.ndarray, np.nda
 
     stage.step = step  # type: ignore[method-assign]
     with tempfile.TemporaryDirectory() as tmp:
-        summary = simulate(m, out=Path(tmp) / "run.h5", autopilot=ap)
+        summary = run_simulation(m, out=Path(tmp) / "run.h5", autopilot=ap)
         run = read_run(Path(tmp) / "run.h5")
         states = run.state[run.control_rows()]  # the true state of each control step
     assert len(states) == len(log)

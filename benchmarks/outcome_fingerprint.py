@@ -39,13 +39,13 @@ def main() -> int:
     args = ap.parse_args()
     os.environ["AUVDOCK_COMPILE"] = "never"
     from auvdock.config.mission import load_mission
-    from auvdock.loop.simulation import simulate
+    from auvdock.loop.simulation import run_simulation
 
     skip = ("solve_time", "wall_time", "setup_time", "real_time")
     out: dict[str, dict[str, object]] = {}
     for case in args.cases.split(","):
         name, _, controller = case.partition(":")
-        s = simulate(load_mission(name), controller=controller or None, keep=True)
+        s = run_simulation(load_mission(name), controller=controller or None, keep=True)
         assert s.run is not None
         figures = {k: _plain(v) for k, v in s.outcome.items() if not k.startswith(skip)}
         figures["thrust_abs_sum_N"] = float(abs(s.run.thrust_N).sum())

@@ -28,7 +28,7 @@ import numpy as np
 
 from auvdock.config.catalog import PAPER_MISSIONS
 from auvdock.config.mission import load_mission
-from auvdock.loop.simulation import simulate
+from auvdock.loop.simulation import run_simulation
 from auvdock.sensing.suites import suite_updates
 from auvdock.sweep.rates import wilson_interval
 
@@ -49,7 +49,7 @@ def one(job: tuple[str, str, int, float]) -> dict[str, Any]:
             "navigation.prior_velocity_std_m_s": 0.05,  # it starts at rest over ground (paper VII.A)
         }
     )
-    o = simulate(m).outcome
+    o = run_simulation(m).outcome
     return {"case": case, "controller": controller, "seed": seed, **o}
 
 

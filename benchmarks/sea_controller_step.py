@@ -23,7 +23,7 @@ import numpy as np
 
 from auvdock.campaign.bench import _parts_median_ms
 from auvdock.config.mission import load_mission
-from auvdock.loop.simulation import simulate
+from auvdock.loop.simulation import run_simulation
 
 RUNS = (
     ("basin_regular", {}),
@@ -42,7 +42,7 @@ def main() -> None:
     for name, updates in RUNS:
         for controller in args.controllers:
             m = load_mission(name).with_updates({**updates, "controller.type": controller})
-            s = simulate(m)
+            s = run_simulation(m)
             ms = np.asarray(s.solve_times_s)[1:] * 1e3
             parts = {k: v[1:] for k, v in s.time_parts_s.items()}
             where = _parts_median_ms(parts, ms)

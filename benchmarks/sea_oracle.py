@@ -23,7 +23,7 @@ from collections import Counter
 import numpy as np
 
 from auvdock.config.mission import load_mission
-from auvdock.loop.simulation import simulate
+from auvdock.loop.simulation import run_simulation
 
 MISSIONS = (
     "basin_regular",
@@ -70,7 +70,7 @@ def main() -> None:
             changes = {"seed": seed, "docking.criterion": args.criterion}
             if args.sensing == "paper":
                 changes.update(paper)
-            o = simulate(base.with_updates(changes)).outcome
+            o = run_simulation(base.with_updates(changes)).outcome
             if o.get("captured", o["docked"]):
                 captured += 1
                 t_capture.append(o["time_to_dock_s"])

@@ -38,11 +38,11 @@ ROOT = Path(__file__).resolve().parents[1]
 def _warm(_: int = 0) -> int:
     """Import auvdock and fly one 0.05 s run in this process; returns the pid."""
     from auvdock.config.mission import load_mission
-    from auvdock.loop.simulation import simulate
+    from auvdock.loop.simulation import run_simulation
 
     m = load_mission(ROOT / "missions" / "still.yaml")
     for c in ("naive", "oracle"):
-        simulate(m, controller=c, timeout_s=0.05)
+        run_simulation(m, controller=c, timeout_s=0.05)
     time.sleep(0.3)  # so that a pool hands the two warm-up calls to two processes
     return os.getpid()
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from auvdock.config.mission import load_mission
-from auvdock.loop.simulation import simulate
+from auvdock.loop.simulation import run_simulation
 from auvdock.results.store import read_run
 from auvdock.sensing.measurements import measure
 from auvdock.sensing.settings import POSITION_SOURCES, SensorSettings
@@ -78,7 +78,7 @@ def test_unknown_position_source_is_one_clear_error(tmp_path: Path) -> None:
 def test_oracle_docks_on_the_navigation_filter(mission: str, tmp_path: Path) -> None:
     m = load_mission(ROOT / "missions" / f"{mission}.yaml").with_updates(estimation="filter")
     out = tmp_path / "run.h5"
-    s = simulate(m, out=out)
+    s = run_simulation(m, out=out)
     assert s.docked, s.outcome
     r = read_run(out)
     assert r.attrs["estimation"] == "filter"

@@ -10,7 +10,7 @@ import pytest
 from matplotlib.quiver import Quiver, QuiverKey
 
 from auvdock.config.mission import load_mission
-from auvdock.loop.simulation import simulate
+from auvdock.loop.simulation import run_simulation
 from auvdock.results.plots import plot_run, run_figures
 from auvdock.results.store import RunResults, read_run
 
@@ -24,7 +24,7 @@ def short_run(tmp_path: Path, mission: str, timeout_s: float, **updates: object)
     if updates:
         m = m.with_updates(**updates)
     h5 = tmp_path / f"{mission}.h5"
-    simulate(m, out=h5, timeout_s=timeout_s)
+    run_simulation(m, out=h5, timeout_s=timeout_s)
     return read_run(h5)
 
 

@@ -22,7 +22,7 @@ from auvdock.config.mission import MissionError, load_mission
 from auvdock.estimation.estimate import Estimate
 from auvdock.fly.replay import replay
 from auvdock.fly.session import check_flyable
-from auvdock.loop.simulation import simulate
+from auvdock.loop.simulation import run_simulation
 from auvdock.loop.verdict import BOUND_95_3D, CaptureVerdict, MarginVerdict
 from auvdock.results.store import read_run
 from auvdock.standins.truth_check import check_flight
@@ -60,7 +60,7 @@ def test_fly_captures_on_the_camera_alone_as_sim_does(loop, tmp_path) -> None:
     instant, fly at its own verdict on its estimate (captured with a 95 % margin)."""
     mission = synthetic_tank(tmp_path)
     m = load_mission(mission)
-    s = simulate(m)
+    s = run_simulation(m)
     assert s.outcome["captured"], s.outcome
     sim, port = loop.vehicle(m, truth_out=tmp_path / "truth.h5", hold_start=True, noise=True)
     res = loop.fly(port, tmp_path, "--arm", "--timeout", "40", mission=mission)

@@ -21,7 +21,7 @@ from auvdock.cli import app
 from auvdock.config.mission import load_mission
 from auvdock.controllers.fse import PerceptionLaw
 from auvdock.estimation.flow_filter import gramian_step, information_lower_bound
-from auvdock.loop.simulation import simulate
+from auvdock.loop.simulation import run_simulation
 from auvdock.results.store import read_run
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -33,7 +33,7 @@ def _run(tmp_path_factory, controller: str):
     m = load_mission(CASE2).with_updates(**{"controller.type": controller, "controller.variant": "paper"})
     assert m.estimator.prior_flow_ned_m_s == [0.0, 0.0, 0.0]
     out = tmp_path_factory.mktemp(controller) / f"case2_{controller}.h5"
-    return simulate(m, out=out), out
+    return run_simulation(m, out=out), out
 
 
 @pytest.fixture(scope="module")

@@ -30,7 +30,7 @@ STEPS = sorted(random.Random(1234).sample(range(1, 60), 3))  # [8, 29, 50]
 MOMENTS = [
     pytest.param("import:auvdock.cli.campaign", id="loading-the-commands"),
     pytest.param("call:auvdock.loop.assemble:build_autopilot", id="building-the-controller"),
-    pytest.param("call:auvdock.loop.simulation:simulate", id="starting-the-run"),
+    pytest.param("call:auvdock.loop.simulation:run_simulation", id="starting-the-run"),
     *[pytest.param(f"sim-step:{k}", id=f"after-step-{k}") for k in [0, *STEPS]],
     pytest.param("call:auvdock.results.store:RunWriter.finish", id="writing-the-outcome"),
     pytest.param("call:auvdock.cli.sim:_summary_table", id="printing-the-summary"),
@@ -63,7 +63,7 @@ def test_sim_sigint_at_every_moment(moment: str, tmp_path: Path) -> None:
         assert r.state.shape == (r.n_steps, 12) and np.all(np.isfinite(r.state)), what
     if moment.startswith(("import:", "call:auvdock.loop.assemble:")):  # before the run: no file
         assert lines == ["interrupted"] and not h5.exists(), what
-    elif moment == "call:auvdock.loop.simulation:simulate":
+    elif moment == "call:auvdock.loop.simulation:run_simulation":
         assert lines == ["interrupted before the first step: no results file was written"], what
         assert not h5.exists(), what
     elif moment.startswith("sim-step:"):  # every finished step, then incomplete
@@ -84,7 +84,7 @@ def test_sim_sigint_before_the_run_does_not_take_an_earlier_file_for_its_own(tmp
     args = ["sim", "diagonal", "-c", "naive", "--timeout", "1", "--no-plots", "--out", str(out)]
     first = subprocess.run([sys.executable, "-m", "auvdock", *args], env=env, capture_output=True)
     assert first.returncode == 1, first.stderr  # ran whole, did not dock in 1 s
-    res = _sim_interrupted("call:auvdock.loop.simulation:simulate", out)  # before this run's first step
+    res = _sim_interrupted("call:auvdock.loop.simulation:run_simulation", out)  # before this run's first step
     what = f"stdout:\n{res.stdout}\nstderr:\n{res.stderr}"
     assert res.returncode == 130, what
     lines = [ln for ln in res.stderr.splitlines() if ln.strip()]

@@ -106,13 +106,13 @@ def test_the_plots_show_the_believed_dock_and_when_the_camera_saw_it(blind_sea_r
 
 def test_a_seen_dock_is_marked_where_and_when(tmp_path: Path) -> None:
     """tank_0p6hz: the camera finds the dock within seconds; its fixes are marked on both plots."""
-    from auvdock.loop.simulation import simulate
+    from auvdock.loop.simulation import run_simulation
     from auvdock.results.plots import run_figures
     from auvdock.results.store import read_run
 
     out = tmp_path / "tank.h5"
     m = load_mission(resolve("tank_0p6hz"))
-    s = simulate(m, out=out, timeout_s=4.0)
+    s = run_simulation(m, out=out, timeout_s=4.0)
     first = s.outcome["dock_first_seen_s"]
     assert 0.0 <= first < 4.0
     figures = dict(run_figures(read_run(out)))

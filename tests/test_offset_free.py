@@ -16,7 +16,7 @@ from helpers.plant import plant
 from auvdock.config.mission import load_mission
 from auvdock.loop.assemble import build_autopilot
 from auvdock.loop.autopilot import Autopilot
-from auvdock.loop.simulation import simulate
+from auvdock.loop.simulation import run_simulation
 from auvdock.sensing.readings import Readings
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -29,7 +29,7 @@ def _run(m, truth, variant: str, autopilot_cls=Autopilot):
     ap = build_autopilot(m, m.build_vehicle(), m.build_dock())
     if autopilot_cls is not Autopilot:
         ap.__class__ = autopilot_cls
-    return simulate(truth, autopilot=ap).outcome, ap
+    return run_simulation(truth, autopilot=ap).outcome, ap
 
 
 @pytest.mark.slow

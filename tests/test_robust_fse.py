@@ -15,7 +15,7 @@ import pytest
 from helpers.plant import plant
 
 from auvdock.config.mission import load_mission
-from auvdock.loop.simulation import simulate
+from auvdock.loop.simulation import run_simulation
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -42,7 +42,7 @@ def test_robust_fse_docks_where_the_paper_variant_does_not(controller, case) -> 
     # autopilot at the start of each run): the same runs as building it anew each time, bit for
     # bit, without its construction (about 0.9 s) ten times
     ap = build_autopilot(m, m.build_vehicle(), m.build_dock())
-    outcomes = [simulate(m.with_updates(seed=seed), autopilot=ap).outcome for seed in SEEDS]
+    outcomes = [run_simulation(m.with_updates(seed=seed), autopilot=ap).outcome for seed in SEEDS]
     docked = [o for o in outcomes if o["docked"]]
     times = ", ".join(f"{o['time_to_dock_s']:.2f}" if o["docked"] else "timeout" for o in outcomes)
     print(f"{controller} {case}: docked {len(docked)}/{len(outcomes)} seeds ({times} s)")
@@ -66,6 +66,6 @@ def test_robust_fse_docks_with_plant_model_error(controller) -> None:
     truth = plant(m, thruster_gain=0.88, buoyancy_N=1.0165, linear_damping=1.3, quadratic_damping=1.3)
     mv = m.with_updates(**{"controller.variant": "robust"})
     ap = build_autopilot(mv, mv.build_vehicle(), mv.build_dock())
-    r = simulate(truth, autopilot=ap).outcome
+    r = run_simulation(truth, autopilot=ap).outcome
     assert r["docked"], r
     assert r["flow_final_error_m_s"] < 0.02

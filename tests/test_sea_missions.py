@@ -11,7 +11,7 @@ from typer.testing import CliRunner
 
 from auvdock.cli import app
 from auvdock.config.mission import MissionError, load_mission
-from auvdock.loop.simulation import simulate
+from auvdock.loop.simulation import run_simulation
 from auvdock.results.store import read_run, read_sea
 from auvdock.world.dock import HeaveDock
 from auvdock.world.spectra import jonswap, realise, regular_wave
@@ -99,7 +99,7 @@ def test_the_buoy_heaves_with_the_sea_for_long_waves():
 
 def test_the_realised_sea_in_the_results_file_recomputes_the_water(tmp_path):
     m = load_mission("basin_regular")
-    s = simulate(m, out=tmp_path / "r.h5", timeout_s=3.0)
+    s = run_simulation(m, out=tmp_path / "r.h5", timeout_s=3.0)
     arrays, attrs = read_sea(s.path)
     sea = WaveComponents.from_arrays(arrays, attrs)
     r = read_run(s.path)
@@ -114,11 +114,13 @@ def test_oracle_captures_in_the_basin_and_collides_from_the_side():
     """From in front of the dock the nose enters the cradle; started beside the dock, the vehicle
     steers straight at the docking point and strikes the structure around the entry."""
     m = load_mission("basin_regular")
-    front = simulate(m, timeout_s=40.0)
+    front = run_simulation(m, timeout_s=40.0)
     assert front.outcome["captured"] and not front.outcome["collided"], front.outcome
     assert front.outcome["reason"] == "captured"
     assert front.outcome["contact_speed_m_s"] <= 0.3
-    side = simulate(m.with_updates(start__state=[2.0, -2.5, 1.0, 0, 0, 0, 0, 0, 0, 0, 0, 0]), timeout_s=40.0)
+    side = run_simulation(
+        m.with_updates(start__state=[2.0, -2.5, 1.0, 0, 0, 0, 0, 0, 0, 0, 0, 0]), timeout_s=40.0
+    )
     o = side.outcome
     assert o["collided"] and not o["captured"], o
     assert o["reason"] == "collided"
@@ -163,7 +165,7 @@ def test_the_buoys_heave_amplitudes_are_rayleigh_distributed():
 def test_the_sea_figures_show_the_spectrum_the_dock_and_the_path_through_the_entry(tmp_path):
     from auvdock.results.plots import run_figures
 
-    s = simulate(load_mission("basin_regular"), out=tmp_path / "r.h5", timeout_s=30.0)
+    s = run_simulation(load_mission("basin_regular"), out=tmp_path / "r.h5", timeout_s=30.0)
     assert s.outcome["captured"]
     r = read_run(s.path)
     figures = dict(run_figures(r))

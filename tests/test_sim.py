@@ -11,7 +11,7 @@ from typer.testing import CliRunner
 from auvdock.cli import app
 from auvdock.config.mission import load_mission
 from auvdock.controllers.status import STATUS_NO_STEP, STATUS_OK
-from auvdock.loop.simulation import simulate
+from auvdock.loop.simulation import run_simulation
 from auvdock.results.store import read_run
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -26,12 +26,12 @@ def mission(name: str, **updates):
 @pytest.fixture(scope="module")
 def oracle_case2(tmp_path_factory):
     out = tmp_path_factory.mktemp("sim") / "case2_oracle.h5"
-    s = simulate(mission("diagonal", **{"controller.type": "oracle"}), out=out, timeout_s=40.0)
+    s = run_simulation(mission("diagonal", **{"controller.type": "oracle"}), out=out, timeout_s=40.0)
     return s, out
 
 
 def test_oracle_docks_in_still_water() -> None:
-    s = simulate(mission("still", **{"controller.type": "oracle"}), timeout_s=40.0)
+    s = run_simulation(mission("still", **{"controller.type": "oracle"}), timeout_s=40.0)
     assert s.docked
     assert s.outcome["closest_approach_m"] <= 0.05
     assert s.outcome["solver_failures"] == 0
@@ -49,7 +49,7 @@ def test_oracle_docks_in_case2(oracle_case2) -> None:
 @pytest.mark.slow
 def test_naive_fails_in_case2() -> None:
     """The paper's finding: a controller blind to a 0.7 m/s current cannot close the last centimetres."""
-    s = simulate(
+    s = run_simulation(
         mission("diagonal", **{"controller.type": "naive", "controller.variant": "paper"}), timeout_s=40.0
     )
     assert not s.docked
@@ -60,7 +60,7 @@ def test_naive_fails_in_case2() -> None:
 def test_offset_free_naive_docks_in_case2() -> None:
     """The robust default estimates the current's steady drag as a disturbance: offset-free, the
     same blind model docks."""
-    s = simulate(mission("diagonal", **{"controller.type": "naive"}), timeout_s=40.0)
+    s = run_simulation(mission("diagonal", **{"controller.type": "naive"}), timeout_s=40.0)
     assert s.docked, s.outcome
 
 
@@ -117,7 +117,7 @@ def test_interrupted_run_keeps_finished_steps(tmp_path: Path) -> None:
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        simulate(mission("still"), out=out, progress=interrupt)
+        run_simulation(mission("still"), out=out, progress=interrupt)
     r = read_run(out)
     assert r.n_steps == k_stop
     assert r.complete is False
@@ -128,7 +128,7 @@ def test_solver_failure_does_not_stop_the_run(tmp_path: Path) -> None:
     # SQP stopped after one iteration: every solve that needs more is a failure
     m = mission("still", **{"controller.solver.name": "sqp", "controller.solver.max_iter": 1})
     out = tmp_path / "fail.h5"
-    s = simulate(m, out=out, timeout_s=2.0)
+    s = run_simulation(m, out=out, timeout_s=2.0)
     r = read_run(out)
     assert r.complete
     assert r.n_steps == 41  # every step of the 2 s ran, then the final state
@@ -219,7 +219,7 @@ def test_six_thruster_bluerov2_docks_in_the_tank() -> None:
     m = load_mission(ROOT / "missions" / "tank_bluerov2.yaml")
     v = m.build_vehicle()
     assert v.n_thrusters == 6 and v.allocation.shape == (6, 6)
-    s = simulate(m)
+    s = run_simulation(m)
     assert s.docked, s.outcome
     assert s.outcome["solver_failures"] == 0
     assert s.outcome["time_to_dock_s"] < 40.0

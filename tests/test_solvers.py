@@ -11,7 +11,7 @@ from auvdock.config.mission import load_mission
 from auvdock.controllers import SOLVERS, build_controller, resolve_solver
 from auvdock.controllers.rti import COLD_START_MAX_ITER
 from auvdock.controllers.status import STATUS_FAILED, STATUS_OK
-from auvdock.loop.simulation import simulate
+from auvdock.loop.simulation import run_simulation
 
 ROOT = Path(__file__).resolve().parents[1]
 FLOW = np.array([0.5, 0.5, 0.0])  # case 2's current, NED m/s
@@ -73,7 +73,7 @@ def test_stage_layout_is_what_hpipm_is_told() -> None:
 
 @pytest.mark.parametrize("solver", SOLVERS)
 def test_every_solver_docks_case2_with_oracle(solver: str) -> None:
-    s = simulate(_case2(solver), timeout_s=40.0)
+    s = run_simulation(_case2(solver), timeout_s=40.0)
     assert s.docked, s.outcome
     assert s.outcome["solver_failures"] == 0
     # the paper's Assumption-3 controller docks in about 20 s in case 2 whichever solver

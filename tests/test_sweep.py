@@ -23,7 +23,7 @@ from typer.testing import CliRunner
 from auvdock.campaign import ResultsFileError, execute_run
 from auvdock.cli import app
 from auvdock.config.mission import MissionError, load_mission
-from auvdock.loop.simulation import simulate
+from auvdock.loop.simulation import run_simulation
 from auvdock.results.store import read_run
 from auvdock.sweep import SweepError, expand_sweep, load_sweep, read_sweep, run_sweep
 from auvdock.sweep.stats import report_sweep, wilson_interval
@@ -301,7 +301,7 @@ timeout_s: 1.0
 
     # and the truth model changes the run: the same run without model error moves differently
     m = load_mission(STILL).with_updates(**{"docking.timeout_s": 1.0})
-    ref = simulate(m).outcome
+    ref = run_simulation(m).outcome
     assert abs(ref["path_length_m"] - out["row"]["path_length_m"]) > 1e-4
 
 
@@ -359,7 +359,7 @@ def test_worker_runs_equal_runs_in_this_process(small) -> None:
                 "seed": r["seed"],
             }
         )
-        o = simulate(m, timeout_s=TIMEOUT).outcome
+        o = run_simulation(m, timeout_s=TIMEOUT).outcome
         assert r["docked"] == o["docked"]
         assert r["closest_approach_m"] == pytest.approx(o["closest_approach_m"], abs=1e-9), r["run_id"]
         assert r["path_length_m"] == pytest.approx(o["path_length_m"], abs=1e-9), r["run_id"]

@@ -1,6 +1,6 @@
 """``auvdock bench``: per-step solve time of each controller x solver on the paper's cases.
 
-Each row is one full closed-loop run (:func:`auvdock.loop.simulation.simulate`) of a shipped
+Each row is one full closed-loop run (:func:`auvdock.loop.simulation.run_simulation`) of a shipped
 paper mission with the given controller and solver; the figures are the wall time of the
 whole controller step (estimator, perception law and MPC for the FSE controllers), in ms:
 median, p95, p99 and max, plus the real-time factor (simulated s per wall s), the docking
@@ -68,7 +68,7 @@ def bench_rows(
     """
     from auvdock.config.mission import load_mission
     from auvdock.controllers import controller_names, resolve_solver
-    from auvdock.loop.simulation import simulate
+    from auvdock.loop.simulation import run_simulation
 
     if controllers is None:
         controllers = controller_names(paper_only=True)
@@ -89,7 +89,7 @@ def bench_rows(
                             "controller.solver.qp": qp,
                         }
                     )
-                    s = simulate(m, timeout_s=timeout_s)
+                    s = run_simulation(m, timeout_s=timeout_s)
                     o = s.outcome
                     ms = np.asarray(s.solve_times_s) * 1e3
                     row = {

@@ -2,7 +2,7 @@
 
 It builds the run's nominal and truth missions, the autopilot from the nominal one
 (:func:`auvdock.loop.assemble.build_autopilot`, timed: that is where solvers are built and
-compiled), flies the truth plant with it (:func:`auvdock.loop.simulation.simulate`), and
+compiled), flies the truth plant with it (:func:`auvdock.loop.simulation.run_simulation`), and
 returns plain data: the run's table row and, when the spec names a run group, the run as
 an HDF5 file image (bytes), which the driver copies into the results file.  Nothing here
 writes to the results file and nothing needs a file system shared with the driver.
@@ -46,7 +46,7 @@ def execute_run(spec: RunSpec, progress: ProgressFn | None = None) -> dict[str, 
     import h5py
 
     from auvdock.loop.assemble import build_autopilot
-    from auvdock.loop.simulation import simulate
+    from auvdock.loop.simulation import run_simulation
 
     row = empty_row(spec, {**OUTCOME_COLUMNS})
     row["worker"] = worker_name()
@@ -74,11 +74,11 @@ def execute_run(spec: RunSpec, progress: ProgressFn | None = None) -> dict[str, 
         setup = time.perf_counter() - t0
         if spec.group is not None:
             with h5py.File(f"{spec.run_id}.h5", "w", driver="core", backing_store=False) as f:
-                s = simulate(truth, autopilot=autopilot, out=f, group=f"/{RUN_GROUP}", progress=on_step)
+                s = run_simulation(truth, autopilot=autopilot, out=f, group=f"/{RUN_GROUP}", progress=on_step)
                 f.flush()
                 image = f.id.get_file_image()
         else:
-            s = simulate(truth, autopilot=autopilot, progress=on_step)
+            s = run_simulation(truth, autopilot=autopilot, progress=on_step)
         o = s.outcome
         for name in OUTCOME_COLUMNS:
             if name in o and name not in ("controller", "seed", "status", "error", "worker", "attempts"):

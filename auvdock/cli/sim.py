@@ -168,7 +168,7 @@ def sim(
     ),
 ) -> None:
     """Run one closed-loop docking simulation: HDF5 results, summary table and plots."""
-    from auvdock.loop.simulation import simulate
+    from auvdock.loop.simulation import run_simulation
     from auvdock.results.plots import save_run_plots
     from auvdock.results.store import read_run
 
@@ -255,7 +255,7 @@ def sim(
 
         earlier = _file_stamp(h5)  # an earlier run's file there is not this run's
         try:
-            summary = simulate(m, out=h5, progress=on_step, timeout_s=timeout, autopilot=ap)
+            summary = run_simulation(m, out=h5, progress=on_step, timeout_s=timeout, autopilot=ap)
         except KeyboardInterrupt:
             if not h5.is_file() or _file_stamp(h5) == earlier:
                 exit_interrupted("interrupted before the first step: no results file was written")

@@ -1,6 +1,6 @@
 """``sim``: one closed-loop docking simulation of a mission.
 
-:func:`simulate` configures the one closed loop (:func:`auvdock.loop.closed_loop.run_closed_loop`)
+:func:`run_simulation` configures the one closed loop (:func:`auvdock.loop.closed_loop.run_closed_loop`)
 with the simulated plant (:class:`~auvdock.loop.simulated_plant.SimulatedPlant`: the truth
 model through the mission's flow field, observed by the simulated sensors), the mission's
 actuator path (``simulation.actuators``: ideal, or ArduSub's channels, mixer and thruster
@@ -40,7 +40,7 @@ from auvdock.results.store import RunWriter, flush_steps
 from auvdock.runtime.interrupts import SigintDeferred
 from auvdock.vehicle.actuators import ACTUATOR_PATHS
 
-__all__ = ["RunSummary", "simulate", "idealisations"]
+__all__ = ["RunSummary", "run_simulation", "idealisations"]
 
 
 def idealisations(mission: Mission, reads_true_flow: bool) -> list[str]:
@@ -90,7 +90,7 @@ class RunSummary:
     #: Where each step's time went (:mod:`auvdock.runtime.timing`): part name -> (steps,) s, zero
     #: where a step had no such part.
     time_parts_s: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
-    #: The whole run in memory (``simulate(..., keep=True)``), else None.
+    #: The whole run in memory (``run_simulation(..., keep=True)``), else None.
     run: Run | None = field(default=None, repr=False)
 
     @property
@@ -98,7 +98,7 @@ class RunSummary:
         return bool(self.outcome.get("docked", False))
 
 
-def simulate(
+def run_simulation(
     mission: Mission,
     *,
     controller: str | None = None,

@@ -3,7 +3,7 @@
 :class:`VehicleSim` answers a topside program (a GCS, QGroundControl, ``auvdock fly``) the
 way ArduSub does on a BlueROV2 Heavy, while the motion comes from this package's one 6-DOF
 truth model (:meth:`auvdock.vehicle.Vehicle.stepper`, the integrator of
-:func:`auvdock.loop.simulation.simulate`) driven through ArduSub's MANUAL thrust path
+:func:`auvdock.loop.simulation.run_simulation`) driven through ArduSub's MANUAL thrust path
 (:func:`auvdock.vehicle.ardusub.thrust_from_channels`).  Use it to test topside code on
 loopback and to rehearse without a vehicle::
 

@@ -14,7 +14,7 @@ runs ``auvdock sim diagonal -c naive --out runs`` exactly as the console script 
     arguments (or in an argument's ``args``, such as a ``Popen``'s command line);
 ``sim-step:K``
     in ``auvdock sim``, just after control step K (0 = the first): from
-    :func:`auvdock.loop.simulation.simulate`'s ``progress`` callback;
+    :func:`auvdock.loop.simulation.run_simulation`'s ``progress`` callback;
 ``fly-step:K``
     in ``auvdock fly``, just after control step K (``FlySession.run``'s ``progress``);
 ``fly-event:TEXT``
@@ -83,7 +83,7 @@ def _on_import(moment: str, module_name: str) -> None:
 def _on_sim_step(moment: str, k: int) -> None:
     import auvdock.loop.simulation as simulation
 
-    real = simulation.simulate
+    real = simulation.run_simulation
 
     @functools.wraps(real)
     def simulate(*args: Any, progress: Any = None, **kwargs: Any) -> Any:
@@ -95,7 +95,7 @@ def _on_sim_step(moment: str, k: int) -> None:
 
         return real(*args, progress=each, **kwargs)
 
-    simulation.simulate = simulate
+    simulation.run_simulation = simulate
 
 
 def _on_fly(moment: str, kind: str, value: str) -> None:
