@@ -28,6 +28,7 @@ from helpers.loopback import (
 )
 from pymavlink import mavutil
 
+import auvdock
 from auvdock.cli import app
 from auvdock.config.mission import load_mission
 from auvdock.fly import FlySession
@@ -109,6 +110,14 @@ def test_fly_arm_docks_in_the_tank(loop, tmp_path) -> None:
     assert r.extras["channels_us"].shape[1] == 6
     assert np.all(r.extras["telemetry_age_s"] <= 0.04 + 1e-9)  # 25 Hz telemetry, read when sent
     assert np.all(r.extras["armed"] == 1.0)
+    # a flight reads back as the one run type of sim, replay and campaigns, with its views; the true
+    # water is unknown on a vehicle (NaN), the mission's flow model is its own column
+    run = auvdock.load_run(h5)
+    assert run.outcome["reason"] == "docked" and run.n_steps == len(r.time_s)
+    assert np.all(np.isnan(run.flow_ned_m_s)) and np.all(run.flow_model_ned_m_s == 0.0)  # still water
+    frame = run.to_dataframe()
+    assert len(frame) == run.n_steps and "flow_model_ned_m_s.north" in frame.columns
+    assert set(run.to_xarray().data_vars) >= {"position", "thrust_N", "channels_us", "flow_model_ned_m_s"}
     # the tlog replays with pymavlink: our overrides and the vehicle's heartbeats are both in it
     log = mavutil.mavlink_connection(str(tlog))
     types = set()

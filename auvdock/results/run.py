@@ -604,7 +604,7 @@ def series_info(name: str, row_shape: tuple[int, ...]) -> dict[str, Any]:
             "units": "N",
             "frame": "thruster axes",
             "long_name": "thrust",
-            "description": "thruster forces applied on [t_k, t_k + dt), each along its thruster's axis",
+            "description": "thruster forces commanded for [t_k, t_k + dt), each along its thruster's axis",
             "flags": (),
         }
     known = _KNOWN.get(name)
@@ -675,11 +675,13 @@ class Run:
         rad), u v w (body velocity over ground, m/s), p q r (body angular rate, rad/s);
         :data:`STATE_COMPONENTS`.
     thrust_N : ndarray, shape (T, n)
-        The n thruster forces applied on [t_k, t_k + dt), N.
+        The n thruster forces commanded for [t_k, t_k + dt), N (the controller's, or the hold's while
+        it holds); what the thrusters push follows from ``channels_us`` on ArduSub's path.
     wrench : ndarray, shape (T, 6)
         Body wrench B u = [X Y Z K M N] in {b}, N and N m.
     flow_ned_m_s : ndarray, shape (T, 3)
-        True water velocity at the vehicle, NED, m/s.
+        True water velocity at the vehicle, NED, m/s; NaN where unknown (a flight: its extra
+        ``flow_model_ned_m_s`` is the mission's flow model).
     dock_position_m : ndarray, shape (T, 3)
         Dock position, NED, m.
     dock_velocity_m_s : ndarray, shape (T, 3)

@@ -21,9 +21,9 @@ name                   shape       unit       frame        meaning
                                    m/s,                    phi theta psi (ZYX Euler angles, rad),
                                    rad/s                   u v w (body velocity over ground, m/s),
                                                            p q r (body angular rate, rad/s)]
-``thrust_N``           (T, n)      N          thruster     the n thruster forces applied on [t_k, t_k+dt)
+``thrust_N``           (T, n)      N          thruster     the n thruster forces commanded for [t_k, t_k+dt)
 ``wrench``             (T, 6)      N, N m     body {b}     body wrench B u = [X Y Z K M N]
-``flow_ned_m_s``       (T, 3)      m/s        NED          true water velocity at the vehicle at t_k
+``flow_ned_m_s``       (T, 3)      m/s        NED          true water velocity at the vehicle (NaN: unknown)
 ``dock_position_m``    (T, 3)      m          NED          dock position at t_k
 ``dock_velocity_m_s``  (T, 3)      m/s        NED          dock velocity at t_k
 ``distance_m``         (T,)        m          --           vehicle-to-dock distance at t_k
