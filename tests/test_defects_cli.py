@@ -225,10 +225,10 @@ def test_sweep_started_with_sigint_ignored_stops_on_sigint(tmp_path) -> None:
 
 
 def test_fly_refuses_a_wec_dock_before_connecting(capsys, tmp_path) -> None:
-    """pacwave_common_10m docks to a WEC buoy in a sea, which fly does not fly yet: it refuses before
-    connecting: exit 2, one line naming the field and what is missing, nothing written (the output in
-    tmp_path, not the mission's runs/ in the clone).  (It was tank_0p6hz's dock camera, then basin_regular's
-    dock telemetry, which fly now flies.)"""
+    """pacwave_common_10m with its Oracle, told the WEC buoy's true motion in the realised sea, which no
+    vehicle knows: fly refuses before connecting: exit 2, one line naming the field and what is missing,
+    nothing written (the output in tmp_path, not the mission's runs/ in the clone).  (It was tank_0p6hz's
+    dock camera, then basin_regular's dock telemetry, then the WEC dock itself, which fly now flies.)"""
     args = ["fly", "pacwave_common_10m", "--port", "udpin:127.0.0.1:9", "--out", str(tmp_path)]
     code, err = _main(args, capsys)
     assert code == 2, err
@@ -236,7 +236,7 @@ def test_fly_refuses_a_wec_dock_before_connecting(capsys, tmp_path) -> None:
     assert len(lines) == 1 and lines[0].startswith("error: ")
     assert "pacwave_common_10m.yaml: dock.wec: " in lines[0]
     assert lines[0].endswith(
-        "fly does not yet fly a WEC dock in a sea (sim only: a vehicle would need the dock's telemetry); "
-        "fly needs the dock's motion model (dock.heave)"
+        "oracle is told the dock's true motion in the realised sea (its definition), which no vehicle knows; "
+        "fly a controller that forecasts it from the dock's telemetry (-c ce, sequential, optimized or naive)"
     )
     assert list(tmp_path.iterdir()) == []

@@ -93,9 +93,10 @@ def test_a_tlog_not_written_by_fly_is_still_called_so(tmp_path) -> None:
 
 # ------------------------------------------------------------------- issue 37: what a new user trips over
 def test_a_mission_fly_refuses_is_refused_before_the_banner_and_writes_nothing(loop, tmp_path) -> None:
-    """A: pacwave_common_10m (a WEC dock in a sea, which fly does not fly yet) with --arm: one line naming
-    what is missing on a vehicle, exit 2, nothing said to be armed, no link opened: no tlog, no results.  (It
-    was tank_0p6hz, the dock camera, which fly now flies: tests/test_fly_camera_sensor.py.)"""
+    """A: pacwave_common_10m with its Oracle (told the WEC dock's true motion in the realised sea, which no
+    vehicle knows) with --arm: one line naming what is missing on a vehicle, exit 2, nothing said to be
+    armed, no link opened: no tlog, no results.  (It was tank_0p6hz, the dock camera, which fly now flies:
+    tests/test_fly_camera_sensor.py.)"""
     mission = ROOT / "missions" / "pacwave_common_10m.yaml"
     res = loop.runner.invoke(
         app, ["fly", str(mission), "--port", f"udpin:{HOST}:{free_port()}", "--arm", "--out", str(tmp_path)]
@@ -103,8 +104,9 @@ def test_a_mission_fly_refuses_is_refused_before_the_banner_and_writes_nothing(l
     assert res.exit_code == 2, res.output
     assert res.stdout == ""
     assert res.stderr == (
-        f"error: {mission}: dock.wec: fly does not yet fly a WEC dock in a sea (sim only: a vehicle would "
-        "need the dock's telemetry); fly needs the dock's motion model (dock.heave)\n"
+        f"error: {mission}: dock.wec: oracle is told the dock's true motion in the realised sea (its "
+        "definition), which no vehicle knows; fly a controller that forecasts it from the dock's telemetry "
+        "(-c ce, sequential, optimized or naive)\n"
     )
     assert "ARMED" not in res.output
     assert list(tmp_path.iterdir()) == []

@@ -217,3 +217,39 @@ def test_fly_forecasts_the_dock_from_its_telemetry_over_mavlink(loop, tmp_path) 
     assert np.mean(np.isfinite(r.extras["dock_forecast_m"])) > 0.95  # the forecast flew
     check = check_flight(flight, tmp_path / "truth.h5")
     assert check.verdict_right and check.truth_contact_at_verdict == "captured", check.lines()
+
+
+PACWAVE = ROOT / "missions" / "pacwave_common_10m.yaml"
+
+
+@pytest.mark.slow
+def test_fly_flies_the_wec_dock_at_pacwave_on_its_telemetry(loop, tmp_path) -> None:
+    """PacWave's WEC dock heaves with the sea, which a vehicle knows from the dock's telemetry alone:
+    vehicle-sim simulates the buoy in the realised sea and sends its motion as the dock's MAVLink system;
+    fly with CE waits for the record, arms and flies on the forecast (a short flight: flown, not docked);
+    the truth file has the buoy's heave and the contact columns.  Oracle, told the true motion by its
+    definition, is refused in one line, as is the mission without the dock's telemetry."""
+    camera = {"source": "synthetic", "calibration": None}
+    sensors = {
+        "dock_telemetry": {"enabled": True, "history_s": 5.0},
+        "dock_camera": {"enabled": True, "visibility_m": 4.0, "rate_hz": CAMERA_RATE_HZ},
+    }
+    mission = write_mission(tmp_path / "pacwave.yaml", base=PACWAVE, camera=camera, sensors=sensors)
+    m = load_mission(mission)
+    with pytest.raises(MissionError, match=r"dock\.wec: oracle is told the dock's true motion"):
+        check_flyable(m)
+    with pytest.raises(MissionError, match=r"dock\.wec: a WEC dock moves with the sea, which a vehicle"):
+        check_flyable(m.with_updates(sensors__dock_telemetry__enabled=False), "ce")
+    sim, port = loop.vehicle(m, truth_out=tmp_path / "truth.h5", hold_start=True)
+    res = loop.fly(port, tmp_path, "--arm", "--timeout", "2", "-c", "ce", mission=mission)
+    assert res.exit_code == 1, res.output + res.stderr  # flown to its timeout
+    assert "not docked within 2 s" in res.output
+    sim.stop()
+    r = read_run(next(tmp_path.glob("pacwave_common_10m_ce_fly_*.h5")))
+    assert r.n_steps == 41 and np.all(r.extras["armed"] == 1.0)
+    assert np.nanmax(r.extras["dock_telemetry_age_s"]) < 0.5  # the record keeps coming, 10 Hz
+    assert np.mean(np.isfinite(r.extras["dock_forecast_m"])) > 0.9  # CE flew on the forecast
+    truth = read_run(tmp_path / "truth.h5")
+    heave = truth.dock_position_m[:, 2]
+    assert np.ptp(heave) > 0.1  # the buoy heaves with the sea (0.46 m std at PacWave's most common sea)
+    assert {"contact_status", "nose_dock_m"} <= set(truth.extras)

@@ -201,7 +201,8 @@ def test_fly_refuses_a_wec_dock_in_one_line(tmp_path):
     assert res.exit_code == 2, res.output
     last = res.output.strip().splitlines()[-1]
     assert last.endswith(
-        "pacwave_common_10m.yaml: dock.wec: fly does not yet fly a WEC dock in a sea (sim only: a vehicle "
-        "would need the dock's telemetry); fly needs the dock's motion model (dock.heave)"
+        "pacwave_common_10m.yaml: dock.wec: oracle is told the dock's true motion in the realised sea (its "
+        "definition), which no vehicle knows; fly a controller that forecasts it from the dock's telemetry "
+        "(-c ce, sequential, optimized or naive)"
     )
     assert list(tmp_path.iterdir()) == []

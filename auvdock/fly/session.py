@@ -221,8 +221,8 @@ def check_flyable(mission: Mission, controller: str | None = None) -> Vehicle:
     MissionError
         Naming the mission's field: a vehicle that is not an 8-thruster BlueROV2 Heavy (ArduSub
         VECTORED_6DOF), a flow-estimating controller with ``estimation: truth`` (the paper's simulated
-        sensing of the water-relative velocity, which no vehicle has), a WEC dock in a sea and the dock's
-        telemetry (not yet flown: each says what a vehicle would need), the dock camera as a sensor
+        sensing of the water-relative velocity, which no vehicle has), a WEC dock without the dock's
+        telemetry or with a controller told its true motion (Oracle, Kinematic), the dock camera as a sensor
         together with ``dock.source: camera`` (one camera path per flight), a camera file that is
         missing or bad (a real camera's is required; the synthetic one is the ideal camera without).
     """
@@ -244,13 +244,23 @@ def check_flyable(mission: Mission, controller: str | None = None) -> Vehicle:
             "estimation: filter (fly --estimation filter; truth is the paper's simulated "
             "water-relative velocity sensor)",
         )
-    if mission.dock.wec is not None:
-        raise MissionError(
-            where,
-            "dock.wec",
-            "fly does not yet fly a WEC dock in a sea (sim only: a vehicle would need the dock's telemetry); "
-            "fly needs the dock's motion model (dock.heave)",
-        )
+    if mission.dock.wec is not None:  # its motion is the sea's: on a vehicle, known from its telemetry only
+        telemetry = mission.estimation == "filter" and mission.sensors.dock_telemetry.enabled
+        if not telemetry:
+            raise MissionError(
+                where,
+                "dock.wec",
+                "a WEC dock moves with the sea, which a vehicle knows only from the dock's own telemetry: "
+                "enable sensors.dock_telemetry (with estimation: filter)",
+            )
+        if CONTROLLERS[name].reads_true_flow:
+            raise MissionError(
+                where,
+                "dock.wec",
+                f"{name} is told the dock's true motion in the realised sea (its definition), which no "
+                "vehicle knows; fly a controller that forecasts it from the dock's telemetry "
+                "(-c ce, sequential, optimized or naive)",
+            )
     camera_sensor = mission.estimation == "filter" and mission.sensors.dock_camera.enabled
     if camera_sensor and mission.dock.source != "model":
         raise MissionError(
