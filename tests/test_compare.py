@@ -102,6 +102,12 @@ def test_tables_and_figures_written(campaign) -> None:
     assert csv_lines[0] == ",".join(TABLE_COLUMNS)
     assert len(csv_lines) == 5
     assert "campaign wall time" in output and "controller set-up" in output
+    # the throughput, and its arithmetic: runs / (wall s x cores)
+    line = r"throughput: ([0-9.]+) runs per core-second \((\d+) runs in ([0-9.]+) s on (\d+) cores?\)"
+    m = re.search(line, output)
+    assert m is not None, output
+    rate, runs, wall, cores = float(m[1]), int(m[2]), float(m[3]), int(m[4])
+    assert runs == 4 and cores >= 1 and rate == pytest.approx(runs / (wall * cores), abs=6e-4, rel=0.05)
 
 
 def test_compare_twice_into_one_folder_exits_2(campaign) -> None:

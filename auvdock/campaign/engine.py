@@ -51,6 +51,15 @@ class CampaignResult:
     errors: dict[str, str] = field(default_factory=dict)
     wall_time_s: float = 0.0
     executor: str = ""
+    #: The runs the executor could run at once (its worker processes, or a cluster's threads); 0: none ran.
+    cores: int = 0
+
+    @property
+    def runs_per_core_second(self) -> float:
+        """Throughput: the runs run now per second of wall time per core the executor had (NaN: none)."""
+        if not self.ran or self.cores <= 0 or self.wall_time_s <= 0:
+            return float("nan")
+        return len(self.ran) / (self.wall_time_s * self.cores)
 
     @property
     def out_dir(self) -> Path:
@@ -142,10 +151,11 @@ def run_plan(
         if todo and ex is None:
             ex = make_executor(workers, None, len(todo), runner=runner, log_dir=path.parent / "logs")
         desc = ex.description if todo and ex is not None else "none (nothing to run)"
+        cores = ex.cores if todo and ex is not None else 0
         store.begin(
             command_line=command_line,
             executor=desc,
-            workers=getattr(ex, "max_workers", 0),
+            workers=cores,
             resume=resume,
         )
         emit("plan", None, {"total": len(plan.specs), "skipped": len(skipped), "todo": len(todo)})
@@ -172,6 +182,7 @@ def run_plan(
         errors=errors,
         wall_time_s=time.perf_counter() - t0,
         executor=desc,
+        cores=cores,
     )
 
 

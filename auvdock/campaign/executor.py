@@ -159,6 +159,11 @@ class LocalExecutor:
         self.pids: list[int] = []  # every worker process started (tests, diagnostics)
 
     @property
+    def cores(self) -> int:
+        """The runs it can run at once: its worker processes (one run each)."""
+        return self.max_workers
+
+    @property
     def description(self) -> str:
         n = self.max_workers
         return f"{n} local worker process" + ("" if n == 1 else "es")
@@ -256,7 +261,10 @@ class DaskExecutor:
             self.client = Client(address, timeout=connect_timeout)
         except (OSError, TimeoutError, ValueError) as e:
             raise ExecutorError(f"--scheduler: cannot connect to the Dask scheduler {address}: {e}") from None
-        n = len(self.client.scheduler_info().get("workers", {}))
+        workers = self.client.scheduler_info().get("workers", {})
+        n = len(workers)
+        #: The runs it can run at once: the cluster's worker threads.
+        self.cores = max(1, sum(int(w.get("nthreads", 1)) for w in workers.values()))
         self.address = address
         self.description = f"Dask scheduler {address} ({n} workers)"
         self.runner = runner

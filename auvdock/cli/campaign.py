@@ -140,6 +140,13 @@ def _ran_line(res) -> None:
         markup=False,
         highlight=False,
     )
+    if res.ran and res.cores > 0:  # throughput, comparable across machines and worker counts
+        console.print(
+            f"throughput: {res.runs_per_core_second:.3f} runs per core-second ({len(res.ran)} runs in "
+            f"{res.wall_time_s:.1f} s on {res.cores} core{'s' if res.cores != 1 else ''})",
+            markup=False,
+            highlight=False,
+        )
 
 
 @app.command()
