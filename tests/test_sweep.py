@@ -313,7 +313,7 @@ def test_a_run_that_raises_is_recorded_not_raised(tmp_path: Path, monkeypatch) -
     def boom(*a, **k):
         raise FloatingPointError("solver blew up")
 
-    monkeypatch.setattr(auvdock.loop.simulation, "simulate", boom)
+    monkeypatch.setattr(auvdock.loop.simulation, "run_simulation", boom)
     out = execute_run(spec)
     row = out["row"]
     assert row["error"] == "FloatingPointError: solver blew up" and row["status"] == "failed"

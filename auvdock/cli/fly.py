@@ -287,19 +287,19 @@ def vehicle_sim(
     m = load_or_exit(path)
     if truth_out is not None:
         truth_out = output_file(truth_out, "--truth-out")
-    console.print(
-        "[bold]vehicle-sim[/bold]: "
-        + escape(
-            f"ArduSub-like BlueROV2 (sysid 1) on {port}, mission {m.name}, speed {speed:g}x, "
-            f"{water_line(m)}, "
-            f"sensor noise {'on' if noise else 'off'}, "
-            f"{'held at the start while disarmed' if hold else 'free from the start'}; Ctrl-C to stop"
-        ),
-        soft_wrap=True,
-    )
     stream = None
     try:
-        try:
+        try:  # (from the banner on: a Ctrl-C right after it is said as one before the simulator started)
+            console.print(
+                "[bold]vehicle-sim[/bold]: "
+                + escape(
+                    f"ArduSub-like BlueROV2 (sysid 1) on {port}, mission {m.name}, speed {speed:g}x, "
+                    f"{water_line(m)}, "
+                    f"sensor noise {'on' if noise else 'off'}, "
+                    f"{'held at the start while disarmed' if hold else 'free from the start'}; Ctrl-C to stop"
+                ),
+                soft_wrap=True,
+            )
             sim = VehicleSim(
                 m,
                 port=port,
