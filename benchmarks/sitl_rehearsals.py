@@ -2,7 +2,7 @@
 
     python benchmarks/sitl_rehearsals.py --ardusub PATH/build/sitl/bin/ardusub \\
         --defaults PATH/Tools/autotest/default_params/sub-6dof.parm [--mission tank_positioned] \\
-        [--controller oracle] [--estimation truth] [--runs 20] [--camera] [--out DIR]
+        [--controller oracle] [--estimation truth] [--runs 20] [--camera] [--rate 0.5] [--out DIR]
 
 Per run, three programs on loopback, as docs/ardusub.md describes them: ``auvdock sitl-physics MISSION
 --truth-out`` (the physics, and the truth), ``ardusub -w --model JSON --speedup 1`` with a home on the
@@ -16,9 +16,14 @@ With ``--camera`` sitl-physics streams the dock's markers as RTP/H.264 to UDP 56
 verdicts were wrong: docked declared with the truth beyond the tolerance at the instant judged (issue 29's
 figure 2), or a run ended undocked with the truth within it.
 
-Real time: about 75 s a run (SITL's EKF needs about 45 s after boot before ArduSub can arm).  Needs an
-ArduSub SITL built outside this project (``./waf configure --board sitl && ./waf sub`` in an ArduPilot
-checkout); nothing here builds it, and no test needs it.
+``--rate R`` runs the whole rehearsal at R x real time, for a machine that cannot keep real time (SITL,
+the physics, the camera's rendering and fly on 2 cores ran at 0.33-0.52 x on 2026-12-07): SITL with
+``--speedup R``, sitl-physics and fly with ``auvdock --clock-rate R``, so that every program agrees on how
+long a control period is (fly refuses to arm a vehicle whose clock runs at another pace than its own).
+
+Real time: about 75 s a run at rate 1 (SITL's EKF needs about 45 s after boot before ArduSub can arm).
+Needs an ArduSub SITL built outside this project (``./waf configure --board sitl && ./waf sub`` in an
+ArduPilot checkout); nothing here builds it, and no test needs it.
 """
 
 from __future__ import annotations
@@ -81,6 +86,7 @@ def main() -> int:
     ap.add_argument("--first", type=int, default=0, help="number of the first run (the physics' seed)")
     ap.add_argument("--timeout", type=float, default=60.0, help="fly's docking timeout, s")
     ap.add_argument("--camera", action="store_true", help="stream the dock's markers (sitl_camera)")
+    ap.add_argument("--rate", type=float, default=1.0, help="every program's pace, x real time (<= 1)")
     ap.add_argument("--out", type=Path, default=Path("runs/sitl_rehearsals"))
     args = ap.parse_args()
     if not args.ardusub.is_file():
@@ -90,6 +96,10 @@ def main() -> int:
         if not Path(f).is_file():
             print(f"error: --defaults {f}: no such file", file=sys.stderr)
             return 2
+    if not 0.05 <= args.rate <= 1.0:
+        print(f"error: --rate {args.rate:g}: expected a rate in [0.05, 1]", file=sys.stderr)
+        return 2
+    rate = ["--clock-rate", f"{args.rate:g}"] if args.rate != 1.0 else []
     args.out.mkdir(parents=True, exist_ok=True)
     print(f"{args.mission}, {args.controller}, {args.runs} runs against {args.ardusub}; files in {args.out}")
     false_docks = missed = flown = 0
@@ -101,6 +111,7 @@ def main() -> int:
         physics = subprocess.Popen(
             [
                 "auvdock",
+                *rate,
                 "sitl-physics",
                 args.mission,
                 "--truth-out",
@@ -114,16 +125,17 @@ def main() -> int:
         )
         time.sleep(2.0)
         sitl = subprocess.Popen(
-            [str(args.ardusub.resolve()), "-w", "--model", "JSON:127.0.0.1", "--speedup", "1", "--home", HOME,
+            [str(args.ardusub.resolve()), "-w", "--model", "JSON:127.0.0.1", "--speedup", f"{args.rate:g}",
+             "--home", HOME,
              "--defaults", f"{args.defaults},{d / 'extra.parm'}", "-I0", "--sim-address=127.0.0.1"],
             cwd=d,
             stdout=(d / "sitl.log").open("w"),
             stderr=subprocess.STDOUT,
         )  # fmt: skip
         try:
-            ready = _await_gps(120.0)
-            time.sleep(3.0)
-            fly = ["auvdock", "fly", args.mission, "--port", "tcp:127.0.0.1:5762", "--arm",
+            ready = _await_gps(120.0 / args.rate)
+            time.sleep(3.0 / args.rate)
+            fly = ["auvdock", *rate, "fly", args.mission, "--port", "tcp:127.0.0.1:5762", "--arm",
                    "--timeout", f"{args.timeout:g}", "-c", args.controller, "--out", str(d)]  # fmt: skip
             if args.estimation:
                 fly += ["--estimation", args.estimation]

@@ -216,3 +216,25 @@ def test_only_udp_connections_run_in_simulated_time() -> None:
 
     with SimClock() as c, pytest.raises(ValueError, match="only UDP connections"):
         c.attach(Serialish())
+
+
+def test_a_scaled_clock_runs_its_base_at_a_rate() -> None:
+    """ScaledClock (``auvdock --clock-rate``): its seconds last 1 / rate of its base's, in every wait."""
+    from auvdock.runtime.clock import ScaledClock
+
+    with SimClock(start=10.0) as base:
+        c = ScaledClock(base, 0.5)
+        assert isinstance(c, Clock) and c.simulated and c.now() == 10.0
+        c.sleep(1.0)  # one second of the scaled clock: two of its base
+        assert base.now() == 12.0 and c.now() == 11.0
+        c.sleep_until(12.0)
+        assert base.now() == 14.0 and c.now() == 12.0
+        assert c.time() == pytest.approx(1.7e9 + 10.0 + 2.0)  # the epoch's seconds scaled too
+        ev = c.event()
+        assert not ev.wait(0.25) and base.now() == 14.5  # a timeout of 0.25 s lasts 0.5 s of the base
+        cond = c.condition()
+        with cond:
+            assert not cond.wait_for(lambda: False, timeout=1.0)
+        assert base.now() == 16.5 and c.now() == 13.25
+    with pytest.raises(ValueError, match="rate must be positive"):
+        ScaledClock(wall_clock, 0.0)

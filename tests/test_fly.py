@@ -401,3 +401,24 @@ def test_failing_solves_fly_neutral_then_abort(loop, tmp_path) -> None:
     assert names[:3] == ["fallback_zero"] * 3  # no good plan yet: neutral from the first step
     assert np.all(r.thrust_N == 0.0) and np.all(r.extras["channels_us"] == 1500)
     assert not sim.armed
+
+
+def test_a_rehearsal_slower_than_real_time_runs_every_program_at_one_rate(loop, tmp_path) -> None:
+    """A vehicle simulator at half speed (a machine that cannot keep real time: SITL at --speedup 0.5):
+    fly at full pace would fly a vehicle that answers at half the speed of its model, so it refuses to
+    arm, naming the rate to give; with ``--clock-rate 0.5`` fly's clock runs at the vehicle's and it flies.
+    In simulated time: the vehicle's pace and fly's are both the loopback clock's, scaled."""
+    sim, port = loop.vehicle(speed=0.5)
+    res = loop.fly(port, tmp_path / "full", "--arm", "--timeout", "2")
+    assert res.exit_code == 3, res.output + res.stderr
+    assert res.output.strip().splitlines()[-1].startswith(
+        "aborted: refusing to arm: the vehicle's clock runs at 0.50 x fly's (its ATTITUDE time_boot_ms over "
+    )
+    assert "(auvdock --clock-rate 0.50 fly ...; ArduSub SITL with --speedup 0.50)" in res.output
+    assert not any(e.kind == "arm" for e in sim.events)
+    res = loop.fly(port, tmp_path / "half", "--arm", "--timeout", "2", clock_rate=0.5)
+    assert res.exit_code == 1, res.output + res.stderr  # armed, flown to its timeout
+    assert "not docked within 2 s" in res.output and any(e.kind == "arm" for e in sim.events)
+    r = read_run(next((tmp_path / "half").glob("*.h5")))
+    vt = r.extras["vehicle_time_s"][:-1]  # the newest ATTITUDE's (25 Hz) at each control step
+    assert (vt[-1] - vt[0]) / (len(vt) - 1) == pytest.approx(0.05, abs=0.003)  # a vehicle period a step

@@ -123,3 +123,19 @@ def test_rc_channels_that_fly_did_not_send_are_a_takeover() -> None:
         "the vehicle uses channel 5 = 1900 us where fly sends 1600 us (RC_CHANNELS): another ground "
         "station with our system id is flying"
     ]
+
+
+def test_a_vehicle_clock_at_another_pace_is_refused_with_the_rate_to_give() -> None:
+    """A simulator that cannot keep fly's pace (ArduSub SITL at 0.45 x real time on a busy machine) flies
+    a vehicle that answers at another speed than its model's: refused, naming the rate that would match."""
+    from auvdock.fly.safety import clock_rate_problem
+
+    assert clock_rate_problem(1.03, 3.0) is None and clock_rate_problem(float("nan"), 0.0) is None
+    assert clock_rate_problem(0.45, 3.2) == (
+        "the vehicle's clock runs at 0.45 x fly's (its ATTITUDE time_boot_ms over 3.2 s): a simulator at "
+        "0.45 x real time needs fly at the same rate (auvdock --clock-rate 0.45 fly ...; ArduSub SITL with "
+        "--speedup 0.45)"
+    )
+    # fly already at half speed, the vehicle at a quarter: the rate to give is the vehicle's, in wall terms
+    assert "needs fly at the same rate (auvdock --clock-rate 0.25 fly" in clock_rate_problem(0.5, 3.0, 0.5)
+

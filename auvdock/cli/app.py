@@ -8,6 +8,7 @@ file, the field and the problem, and no traceback.
 from __future__ import annotations
 
 import contextlib
+import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -17,7 +18,7 @@ from rich.console import Console
 
 from auvdock._version import __version__
 from auvdock.config.mission import Mission, MissionError, load_mission
-from auvdock.runtime.clock import Clock, wall_clock
+from auvdock.runtime.clock import Clock, ScaledClock, wall_clock
 
 
 def _usage_name(self) -> str:  # noqa: ANN001 -- a method of typer.core.TyperArgument
@@ -167,14 +168,25 @@ def _version_callback(value: bool) -> None:
 
 @app.callback()
 def _main(
+    ctx: typer.Context,
     version: bool = typer.Option(
         False, "--version", callback=_version_callback, is_eager=True, help="Print the version and exit."
+    ),
+    clock_rate: float = typer.Option(
+        1.0,
+        "--clock-rate",
+        help="Run the command's clock at RATE x the wall clock: a rehearsal slower than real time, every "
+        "program at one rate (ArduSub SITL with --speedup RATE). A vehicle runs at 1.",
     ),
 ) -> None:
     """auvdock: flow-state-estimating MPC docking for underwater vehicles."""
     from auvdock.runtime.codegen import set_reporter
 
     set_reporter(_compile_notice, _background_notice)
+    if clock_rate != 1.0:
+        if not (math.isfinite(clock_rate) and 0.01 <= clock_rate <= 1.0):
+            fail_input(f"--clock-rate {clock_rate:g}: expected a rate in [0.01, 1] (slower than real time)")
+        ctx.obj = Runtime(ScaledClock(runtime(ctx).clock, clock_rate))
 
 
 def _background_notice(message: str) -> None:

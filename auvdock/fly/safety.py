@@ -8,6 +8,7 @@ released at once.  Being functions of values, each rule is tested on its own
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -21,6 +22,8 @@ if TYPE_CHECKING:
     from auvdock.fly.link_health import LinkFigures
 
 __all__ = [
+    "CLOCK_RATE_TOLERANCE",
+    "clock_rate_problem",
     "preflight_problems",
     "takeover_reason",
     "limit_reason",
@@ -28,6 +31,25 @@ __all__ = [
     "staleness",
     "FailedSolves",
 ]
+
+
+#: How far the vehicle's clock may run from fly's (a fraction) before arming is refused: a rehearsal whose
+#: simulator cannot keep fly's pace flies a vehicle that answers at another speed than its model's.
+CLOCK_RATE_TOLERANCE = 0.05
+
+
+def clock_rate_problem(rate: float, span_s: float, fly_rate: float = 1.0) -> str | None:
+    """Why not to arm when the vehicle's clock runs at ``rate`` times fly's (measured over ``span_s`` s of
+    its ATTITUDE ``time_boot_ms``; NaN: not measured yet), fly's own clock running at ``fly_rate`` times
+    the wall clock (``auvdock --clock-rate``); None within :data:`CLOCK_RATE_TOLERANCE`."""
+    if not math.isfinite(rate) or abs(rate - 1.0) <= CLOCK_RATE_TOLERANCE:
+        return None
+    wall = rate * fly_rate  # the vehicle's seconds per wall-clock second
+    return (
+        f"the vehicle's clock runs at {rate:.2f} x fly's (its ATTITUDE time_boot_ms over {span_s:.1f} s): "
+        f"a simulator at {wall:.2f} x real time needs fly at the same rate "
+        f"(auvdock --clock-rate {wall:.2f} fly ...; ArduSub SITL with --speedup {wall:.2f})"
+    )
 
 
 def preflight_problems(

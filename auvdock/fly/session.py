@@ -87,9 +87,7 @@ from auvdock.fly.link import LinkError, MavlinkLink
 from auvdock.fly.plant import MavlinkPlant
 from auvdock.fly.readings import FlyReadings
 from auvdock.fly.record import FlyRecorder
-from auvdock.fly.safety import (
-    preflight_problems,
-)
+from auvdock.fly.safety import clock_rate_problem, preflight_problems
 from auvdock.fly.supervisor import FlySupervisor, vehicle_mode
 from auvdock.fly.telemetry import (
     PRESSURE_PARAMETERS,
@@ -102,7 +100,7 @@ from auvdock.loop import closed_loop
 from auvdock.loop.assemble import build_autopilot
 from auvdock.loop.stages import LoopResult, Progress, Stages, Verdict
 from auvdock.loop.verdict import CaptureVerdict, DockingRule, MarginVerdict
-from auvdock.runtime.clock import Clock
+from auvdock.runtime.clock import Clock, ScaledClock
 from auvdock.runtime.interrupts import SigintDeferred, interrupt_name
 from auvdock.runtime.stderr_capture import StderrCapture
 from auvdock.vehicle import Vehicle
@@ -611,8 +609,9 @@ class FlySession:
     def _preflight(self) -> None:
         """Before arming, on measured values: the parameter checks, the pressure sensor's depth
         inside the geofence and near the mission's start depth, the dock inside the geofence,
-        the battery above its floor.  With --arm any problem refuses to arm (one line, all of
-        them in the events); a dry run reports them and goes on.  The depth is the median of the
+        the battery above its floor, the vehicle's clock at fly's pace (a simulator slower than real
+        time: :func:`auvdock.fly.safety.clock_rate_problem`).  With --arm any problem refuses to arm (one
+        line, all of them in the events); a dry run reports them and goes on.  The depth is the median of the
         pressure sensor's readings over the last ``fly.preflight_window_s`` (gathered with the frame's:
         :meth:`_set_frame`)."""
         window = self.mission.fly.preflight_window_s
@@ -624,6 +623,11 @@ class FlySession:
             self.io.state.battery_v,
             self.io.figures(),
         )
+        rate, span = self.io.clock_rate()  # a simulator that cannot keep fly's pace: refused
+        fly_rate = self.clock.rate if isinstance(self.clock, ScaledClock) else 1.0
+        clock = clock_rate_problem(rate, span, fly_rate)
+        if clock is not None:
+            problems.append(clock)
         self.log.add(f"link: {self.io.figures().describe()}")
         if not problems:
             self.log.add("pre-flight checks pass")

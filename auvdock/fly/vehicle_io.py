@@ -69,6 +69,10 @@ class VehicleIO:
         self.feeds: list[Feed] = []
         self.now_us = 0
         self._next_timesync = -math.inf
+        #: (tlog stamp us, time_boot_ms) of the first and the newest ATTITUDE drained: the vehicle's clock
+        #: against ours (:meth:`clock_rate`)
+        self._clock_first: tuple[int, int] | None = None
+        self._clock_last: tuple[int, int] | None = None
 
     @property
     def target_system(self) -> int:
@@ -93,7 +97,23 @@ class VehicleIO:
             self.link.send_timesync(LinkHealth.request_ns(now_us * 1e-6))
         for text in self.state.feed(messages, self.target_system):
             self.events.add(text)
+        att, stamp = self.telemetry.latest("ATTITUDE")
+        if att is not None and stamp is not None:
+            pair = (int(stamp), int(att.time_boot_ms))
+            if self._clock_first is None:
+                self._clock_first = pair
+            self._clock_last = pair
         return now_us
+
+    def clock_rate(self) -> tuple[float, float]:
+        """(the vehicle's clock's rate against this session's clock, the span it was measured over, s):
+        the newest ATTITUDE's ``time_boot_ms`` against its arrival, from the first one drained; the rate
+        is NaN over less than 1 s."""
+        if self._clock_first is None or self._clock_last is None:
+            return math.nan, 0.0
+        (s0, b0), (s1, b1) = self._clock_first, self._clock_last
+        span = (s1 - s0) * 1e-6
+        return ((b1 - b0) * 1e-3 / span if span >= 1.0 else math.nan), span
 
     def figures(self) -> LinkFigures:
         """The link's health now."""

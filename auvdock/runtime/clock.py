@@ -63,6 +63,7 @@ from auvdock.runtime.sim_udp import DatagramLedger, attach_counting, counting_so
 __all__ = [
     "Clock",
     "WallClock",
+    "ScaledClock",
     "SimClock",
     "ClockClosedError",
     "ClockDeadlockError",
@@ -175,6 +176,111 @@ class WallClock:
 
 #: The process's wall clock (stateless; any instance would do).
 wall_clock = WallClock()
+
+
+class _ScaledEvent:
+    """An event of a :class:`ScaledClock`: ``wait(timeout)`` in the scaled clock's seconds."""
+
+    def __init__(self, inner: Any, rate: float) -> None:
+        self._inner, self._rate = inner, rate
+
+    def set(self) -> None:
+        self._inner.set()
+
+    def clear(self) -> None:
+        self._inner.clear()
+
+    def is_set(self) -> bool:
+        return bool(self._inner.is_set())
+
+    def wait(self, timeout: float | None = None) -> bool:
+        return bool(self._inner.wait(None if timeout is None else timeout / self._rate))
+
+
+class _ScaledCondition:
+    """A condition of a :class:`ScaledClock`: ``wait`` / ``wait_for`` timeouts in its seconds."""
+
+    def __init__(self, inner: Any, rate: float) -> None:
+        self._inner, self._rate = inner, rate
+
+    def __enter__(self) -> Any:
+        return self._inner.__enter__()
+
+    def __exit__(self, *exc: object) -> Any:
+        return self._inner.__exit__(*exc)
+
+    def wait(self, timeout: float | None = None) -> bool:
+        return bool(self._inner.wait(None if timeout is None else timeout / self._rate))
+
+    def wait_for(self, predicate: Callable[[], Any], timeout: float | None = None) -> Any:
+        return self._inner.wait_for(predicate, None if timeout is None else timeout / self._rate)
+
+    def notify(self, n: int = 1) -> None:
+        self._inner.notify(n)
+
+    def notify_all(self) -> None:
+        self._inner.notify_all()
+
+
+class ScaledClock:
+    """Another clock (the wall clock) run at ``rate`` times its speed: a rehearsal slower than real time.
+
+    A machine that cannot simulate a vehicle, its firmware (ArduSub SITL) and its camera in real time can
+    run them all slower, at one rate: SITL with ``--speedup RATE``, and auvdock's commands on this clock
+    (``auvdock --clock-rate RATE ...``), so that every program agrees on how long a control period is.
+    ``now()`` and ``time()`` advance ``rate`` seconds per second of ``base``; a wait of ``d`` s lasts
+    ``d / rate`` s of ``base``.  A vehicle runs at the wall clock: ``fly`` refuses a rate other than 1
+    unless the vehicle is a simulator running at the same rate (SITL's ``SIM_SPEEDUP``).
+
+    Parameters
+    ----------
+    base : Clock
+        The clock scaled (the wall clock; a :class:`SimClock` in tests).
+    rate : float
+        Seconds of this clock per second of ``base`` (> 0; 0.5: half speed).
+    """
+
+    def __init__(self, base: Clock, rate: float) -> None:
+        if not (math.isfinite(rate) and rate > 0):
+            raise ValueError(f"ScaledClock: rate must be positive, got {rate!r}")
+        self.base = base
+        self.rate = float(rate)
+        self.simulated = base.simulated
+        self._base0 = base.now()
+        self._epoch0 = base.time()
+
+    def now(self) -> float:
+        return self._base0 + (self.base.now() - self._base0) * self.rate
+
+    def time(self) -> float:
+        return self._epoch0 + (self.base.time() - self._epoch0) * self.rate
+
+    def sleep(self, dt: float) -> None:
+        self.base.sleep(dt / self.rate)
+
+    def sleep_until(self, t: float) -> None:
+        self.base.sleep_until(self._base0 + (t - self._base0) / self.rate)
+
+    def event(self) -> _ScaledEvent:
+        return _ScaledEvent(self.base.event(), self.rate)
+
+    def condition(self) -> _ScaledCondition:
+        return _ScaledCondition(self.base.condition(), self.rate)
+
+    def start_thread(self, target: Callable[[], None], name: str, daemon: bool = True) -> threading.Thread:
+        return self.base.start_thread(target, name, daemon)
+
+    def join(self, thread: threading.Thread, timeout: float | None = None) -> bool:
+        return self.base.join(thread, None if timeout is None else timeout / self.rate)
+
+    def wait_readable(self, sock: Any, timeout: float) -> bool:
+        return self.base.wait_readable(sock, timeout / self.rate)
+
+    def attach(self, conn: Any) -> None:
+        self.base.attach(conn)
+
+    def __repr__(self) -> str:
+        return f"ScaledClock({self.base!r}, rate={self.rate:g})"
 
 
 class ClockClosedError(RuntimeError):

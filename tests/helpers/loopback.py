@@ -105,9 +105,12 @@ class Loopback:
         self.sims.append(sim)
         return sim, relay, port
 
-    def fly(self, port: int, out: Path, *extra: str, mission: Path = TANK) -> Any:
-        """``auvdock fly MISSION --port udpin:127.0.0.1:PORT --out OUT EXTRA...`` (a CliRunner result)."""
+    def fly(self, port: int, out: Path, *extra: str, mission: Path = TANK, clock_rate: float = 1.0) -> Any:
+        """``auvdock [--clock-rate R] fly MISSION --port udpin:127.0.0.1:PORT --out OUT EXTRA...`` (a
+        CliRunner result), on the loopback's clock (``clock_rate``: scaled, as ``--clock-rate`` does)."""
         args = ["fly", str(mission), "--port", f"udpin:{HOST}:{port}", "--out", str(out), *extra]
+        if clock_rate != 1.0:
+            args = ["--clock-rate", f"{clock_rate:g}", *args]
         return self.runner.invoke(app, args, obj=Runtime(self.clock))
 
     def close(self) -> None:
