@@ -206,10 +206,13 @@ class _SourceBase:
 class _ThreadedSource(_SourceBase):
     """A producer thread pushes frames into a short queue that drops its oldest frame when full."""
 
-    def __init__(self, description: str, queue_len: int) -> None:
+    def __init__(self, description: str, queue_len: int, clock: Clock | None = None) -> None:
         if isinstance(queue_len, bool) or not isinstance(queue_len, int) or queue_len < 1:
             raise ValueError(f"queue_len: expected a positive integer, got {queue_len!r}")
         self.description = description
+        #: What a frame's capture instant is read on (the session's clock: ``auvdock --clock-rate``
+        #: scales it); the frames themselves come in real time from their device.
+        self._clock = wall_clock if clock is None else clock
         self._queue: collections.deque[Frame] = collections.deque(maxlen=queue_len)
         self._cond = threading.Condition()
         self._stop = threading.Event()
@@ -239,7 +242,7 @@ class _ThreadedSource(_SourceBase):
         raise NotImplementedError
 
     def _push(self, image: np.ndarray, pts_s: float | None) -> None:
-        frame = Frame(image, time.monotonic(), self._produced, pts_s)
+        frame = Frame(image, self._clock.now(), self._produced, pts_s)
         with self._cond:
             if len(self._queue) == self._queue.maxlen:
                 self._dropped += 1
@@ -354,10 +357,11 @@ class RtpSource(_ThreadedSource):
         *,
         payload_type: int = RTP_PAYLOAD_TYPE,
         queue_len: int = 8,
+        clock: Clock | None = None,
     ) -> None:
         check_rtp_port(port, f"port {port}")
         check_payload_type(payload_type)
-        super().__init__(f"rtp://{host}:{port} (H.264, payload type {payload_type})", queue_len)
+        super().__init__(f"rtp://{host}:{port} (H.264, payload type {payload_type})", queue_len, clock)
         av = import_av()
         self.port = port
         self.host = host
@@ -477,7 +481,7 @@ class V4l2Source(_ThreadedSource):
         ``"cannot open V4L2 device /dev/videoN"`` (with the reason when known).
     """
 
-    def __init__(self, device: int | str, *, queue_len: int = 2) -> None:
+    def __init__(self, device: int | str, *, queue_len: int = 2, clock: Clock | None = None) -> None:
         if isinstance(device, str):
             m = re.fullmatch(r"/dev/video(\d+)", device)
             if m is None:
@@ -488,7 +492,7 @@ class V4l2Source(_ThreadedSource):
         else:
             raise ValueError(f"device: expected N or /dev/videoN, got {device!r}")
         path = f"/dev/video{number}"
-        super().__init__(f"V4L2 device {path}", queue_len)
+        super().__init__(f"V4L2 device {path}", queue_len, clock)
         self.path = path
         if not os.path.exists(path):
             raise VideoSourceError(f"cannot open V4L2 device {path}: no such device")
@@ -705,7 +709,8 @@ def open_source(
     image_fps : float
         Frame rate of image folders when ``realtime``, frames/s.
     clock : Clock, optional
-        Files and image folders only: the clock they pace on (default the wall clock).
+        The clock a frame's capture instant is read on, and files and image folders pace on (default
+        the wall clock).
 
     Returns
     -------
@@ -728,9 +733,9 @@ def open_source(
         if not _IPV4.fullmatch(host) or any(int(b) > 255 for b in host.split(".")):
             raise ValueError(f"video source {spec!r}: HOST must be an IPv4 address, got {host!r}")
         port = int(m.group("port"))
-        return RtpSource(check_rtp_port(port, f"video source {spec!r}"), host)
+        return RtpSource(check_rtp_port(port, f"video source {spec!r}"), host, clock=clock)
     if m := _V4L2.fullmatch(s):
-        return V4l2Source(int(m.group("n")))
+        return V4l2Source(int(m.group("n")), clock=clock)
     if s and not re.match(r"(udp|rtp|v4l2|rtsp|https?|tcp):", s):
         path = Path(s).expanduser()
         if path.is_dir():
