@@ -7,10 +7,10 @@
 Per run, three programs on loopback, as docs/ardusub.md describes them: ``auvdock sitl-physics MISSION
 --truth-out`` (the physics, and the truth), ``ardusub -w --model JSON --speedup 1`` with a home on the
 water surface and ``--defaults DEFAULTS,extra.parm`` (``BATT_MONITOR 4``, ``SIM_BATT_VOLTAGE 16``,
-``SIM_BARO_RND 0.02``), a ground-station stand-in on TCP 5760 until ArduSub's EKF uses GPS (SITL boots
-when it connects), then ``auvdock fly MISSION --port tcp:127.0.0.1:5762 --arm``; then sitl-physics is
-stopped with SIGTERM (it writes its truth) and ``auvdock truth-check`` scores the flight.  Each run
-starts SITL afresh (``-w``: parameters wiped), so runs differ by SITL's own sensor noise and timing.
+``SIM_BARO_RND 0.02``, ``SIM_BAR2_RND 0.02``), a ground-station stand-in on TCP 5760 until ArduSub's EKF
+uses GPS (SITL boots when it connects), then ``auvdock fly MISSION --port tcp:127.0.0.1:5762 --arm``; then
+sitl-physics is stopped with SIGTERM (it writes its truth) and ``auvdock truth-check`` scores the flight.
+Each run starts SITL afresh (``-w``: parameters wiped), so runs differ by SITL's own sensor noise and timing.
 With ``--camera`` sitl-physics streams the dock's markers as RTP/H.264 to UDP 5600 (for
 ``missions/sitl_camera.yaml``).  Prints per run how fly ended and the truth-check verdict, then how many
 verdicts were wrong: docked declared with the truth beyond the tolerance at the instant judged (issue 29's
@@ -36,7 +36,9 @@ import time
 from pathlib import Path
 
 HOME = "33.810313,-118.393867,0,185"  # ArduSub's autotest home, at altitude 0 (the water surface)
-EXTRA_PARM = "BATT_MONITOR 4\nSIM_BATT_VOLTAGE 16.0\nSIM_BARO_RND 0.02\n"
+#: Battery, and both barometers at a Bar30's 2 cm (fly reads the second, SCALED_PRESSURE2: SIM_BAR2_RND,
+#: 0.2 m by default, ten times the missions' stated depth noise)
+EXTRA_PARM = "BATT_MONITOR 4\nSIM_BATT_VOLTAGE 16.0\nSIM_BARO_RND 0.02\nSIM_BAR2_RND 0.02\n"
 
 
 def _stop(proc: subprocess.Popen, sig: int = signal.SIGTERM, wait_s: float = 20.0) -> None:
