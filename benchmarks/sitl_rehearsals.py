@@ -5,11 +5,12 @@
         [--controller oracle] [--estimation truth] [--runs 20] [--camera] [--rate 0.5] [--out DIR]
 
 Per run, three programs on loopback, as docs/ardusub.md describes them: ``auvdock sitl-physics MISSION
---truth-out`` (the physics, and the truth), ``ardusub -w --model JSON --speedup 1`` with a home on the
-water surface and ``--defaults DEFAULTS,extra.parm`` (``BATT_MONITOR 4``, ``SIM_BATT_VOLTAGE 16``,
-``SIM_BARO_RND 0.02``, ``SIM_BAR2_RND 0.02``), a ground-station stand-in on TCP 5760 until ArduSub's EKF
-uses GPS (SITL boots when it connects), then ``auvdock fly MISSION --port tcp:127.0.0.1:5762 --arm``; then
-sitl-physics is stopped with SIGTERM (it writes its truth) and ``auvdock truth-check`` scores the flight.
+--truth-out`` (the physics, and the truth), ``ardusub -w --model JSON --speedup 1`` with a home on the water
+surface and ``--defaults DEFAULTS,extra.parm`` (``BATT_MONITOR 4``, ``SIM_BATT_VOLTAGE 16``,
+``SIM_BARO_RND`` and ``SIM_BAR2_RND`` at the mission's depth noise), a ground-station stand-in on TCP 5760
+until ArduSub's EKF uses GPS (SITL boots when it connects), then ``auvdock fly MISSION --port
+tcp:127.0.0.1:5762 --arm``; then sitl-physics is stopped with SIGTERM (it writes its truth) and ``auvdock
+truth-check`` scores the flight.
 Each run starts SITL afresh (``-w``: parameters wiped), so runs differ by SITL's own sensor noise and timing.
 With ``--camera`` sitl-physics streams the dock's markers as RTP/H.264 to UDP 5600 (for
 ``missions/sitl_camera.yaml``).  Prints per run how fly ended and the truth-check verdict, then how many
@@ -36,9 +37,19 @@ import time
 from pathlib import Path
 
 HOME = "33.810313,-118.393867,0,185"  # ArduSub's autotest home, at altitude 0 (the water surface)
-#: Battery, and both barometers at a Bar30's 2 cm (fly reads the second, SCALED_PRESSURE2: SIM_BAR2_RND,
-#: 0.2 m by default, ten times the missions' stated depth noise)
-EXTRA_PARM = "BATT_MONITOR 4\nSIM_BATT_VOLTAGE 16.0\nSIM_BARO_RND 0.02\nSIM_BAR2_RND 0.02\n"
+#: The battery; the barometers' noise is the mission's depth sensor's (:func:`_extra_parm`)
+EXTRA_PARM = "BATT_MONITOR 4\nSIM_BATT_VOLTAGE 16.0\n"
+
+
+def _extra_parm(mission: str) -> str:
+    """SITL's extra parameters: the battery, and both barometers' noise at the mission's stated depth noise
+    (``sensors.depth.std_m``; fly reads the second barometer, SCALED_PRESSURE2, whose SITL noise
+    ``SIM_BAR2_RND`` is 0.2 m by default: a hundred times a Bar30's 2 mm, and the navigation filter then
+    leaves most depth readings out as implausible)."""
+    from auvdock.config.mission import load_mission
+
+    std = load_mission(mission).sensors.depth.std_m
+    return f"{EXTRA_PARM}SIM_BARO_RND {std:g}\nSIM_BAR2_RND {std:g}\n"
 
 
 def _stop(proc: subprocess.Popen, sig: int = signal.SIGTERM, wait_s: float = 20.0) -> None:
@@ -108,7 +119,7 @@ def main() -> int:
     for i in range(args.first, args.first + args.runs):
         d = (args.out / f"{args.mission}_{args.controller}_{i}").resolve()
         d.mkdir(parents=True, exist_ok=True)
-        (d / "extra.parm").write_text(EXTRA_PARM)
+        (d / "extra.parm").write_text(_extra_parm(args.mission))
         camera = ["--camera", "udp:127.0.0.1:5600"] if args.camera else []
         physics = subprocess.Popen(
             [
