@@ -49,7 +49,10 @@ def _extra_parm(mission: str) -> str:
     from auvdock.config.mission import load_mission
 
     std = load_mission(mission).sensors.depth.std_m
-    return f"{EXTRA_PARM}SIM_BARO_RND {std:g}\nSIM_BAR2_RND {std:g}\n"
+    # SITL's underwater barometer is sea water's (1024 kg/m^3, AP_Baro::SimpleUnderWaterAtmosphere): ArduSub,
+    # and fly after it, convert pressure to depth with BARO_SPEC_GRAV (1.0 fresh water by default: every
+    # depth 2.4 % deep, 2.4 cm at 1 m, twelve times the tank's stated 2 mm, and the filter left it out)
+    return f"{EXTRA_PARM}SIM_BARO_RND {std:g}\nSIM_BAR2_RND {std:g}\nBARO_SPEC_GRAV 1.024\n"
 
 
 def _stop(proc: subprocess.Popen, sig: int = signal.SIGTERM, wait_s: float = 20.0) -> None:
