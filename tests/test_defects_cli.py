@@ -240,3 +240,18 @@ def test_fly_refuses_a_wec_dock_before_connecting(capsys, tmp_path) -> None:
         "fly a controller that forecasts it from the dock's telemetry (-c ce, sequential, optimized or naive)"
     )
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    ("rate", "line"),
+    [
+        ("2", "error: --clock-rate 2: expected a rate in [0.01, 1] (slower than real time)"),
+        ("0", "error: --clock-rate 0: expected a rate in [0.01, 1] (slower than real time)"),
+        ("abc", "error: --clock-rate: expected a number (got 'abc')"),
+    ],
+)
+def test_a_clock_rate_outside_what_a_rehearsal_can_use_is_one_line(capsys, rate: str, line: str) -> None:
+    """``auvdock --clock-rate R``: a rehearsal slower than real time (0.01 <= R <= 1); anything else is one
+    line naming the option, exit 2, before any command runs."""
+    code, err = _main(["--clock-rate", rate, "missions"], capsys)
+    assert code == 2 and err.strip() == line
