@@ -27,7 +27,6 @@ from auvdock.fly.camera_sensor import CAMERA_SENSOR_SERIES
 from auvdock.fly.dock_telemetry import DOCK_TELEMETRY_SERIES
 from auvdock.loop.stages import LoopEnding, Sensed
 from auvdock.sensing.readings import Reading, Readings
-from auvdock.vehicle.state import POS
 
 if TYPE_CHECKING:
     from auvdock.config.mission import Mission
@@ -40,7 +39,6 @@ if TYPE_CHECKING:
     from auvdock.fly.telemetry import MissionFrame
     from auvdock.fly.vehicle_io import VehicleIO
     from auvdock.loop.stages import Observation
-    from auvdock.world.flow import FlowField
 
 __all__ = ["FlyReadings"]
 
@@ -54,8 +52,6 @@ class FlyReadings:
         The vehicle's link, drained by the plant.
     mission : Mission
         ``fly.stale_abort_s``, ``dock.source``.
-    flow : FlowField
-        The mission's flow model (the readings' ``flow_ned``: what Kinematic and Oracle read).
     dock_clock : DockClock
         The mission's dock on the vehicle's clock.
     frame : MissionFrame
@@ -71,7 +67,6 @@ class FlyReadings:
         self,
         io: VehicleIO,
         mission: Mission,
-        flow: FlowField,
         dock_clock: DockClock,
         frame: MissionFrame,
         *,
@@ -83,7 +78,6 @@ class FlyReadings:
     ) -> None:
         self.io = io
         self.mission = mission
-        self.flow = flow
         self.dock_clock = dock_clock
         self.frame = frame
         self.delay = delay
@@ -138,7 +132,8 @@ class FlyReadings:
             return Sensed(Readings(t), False, columns)
         # the readings are taken (marked read) only when the estimation stage runs
         suite = io.telemetry.readings(t, io.now_us, offset) + fixes
-        v_model = self.flow.velocity(x[POS], t)
+        # the mission's flow model at the vehicle, as the plant recorded it: what Kinematic and Oracle read
+        v_model = obs.columns["flow_model_ned_m_s"]
         readings = Readings(t, suite, x.copy(), None, v_model, state_t=state_t)
         columns["imu_specific_force_m_s2"] = io.telemetry.specific_force
         return Sensed(readings, True, columns)

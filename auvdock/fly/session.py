@@ -712,7 +712,6 @@ class FlySession:
         self._readings = FlyReadings(
             self.io,
             m,
-            self.flow,
             self.dock_clock,
             self._frame,
             delay=self.autopilot.delay,
