@@ -7,13 +7,13 @@
 Per run, three programs on loopback, as docs/ardusub.md describes them: ``auvdock sitl-physics MISSION
 --truth-out`` (the physics, and the truth), ``ardusub -w --model JSON --speedup 1`` with a home on the water
 surface and ``--defaults DEFAULTS,extra.parm`` (``BATT_MONITOR 4``, ``SIM_BATT_VOLTAGE 16``,
-``SIM_BARO_RND`` and ``SIM_BAR2_RND`` at the mission's depth noise), a ground-station stand-in on TCP 5760
+``SIM_BARO_RND`` and ``SIM_BAR2_RND`` at a Bar30's 2 mm), a ground-station stand-in on TCP 5760
 until ArduSub's EKF uses GPS (SITL boots when it connects), then ``auvdock fly MISSION --port
 tcp:127.0.0.1:5762 --arm``; then sitl-physics is stopped with SIGTERM (it writes its truth) and ``auvdock
 truth-check`` scores the flight.
 Each run starts SITL afresh (``-w``: parameters wiped), so runs differ by SITL's own sensor noise and timing.
 With ``--camera`` sitl-physics streams the dock's markers as RTP/H.264 to UDP 5600 (for
-``missions/sitl_camera.yaml``).  Prints per run how fly ended and the truth-check verdict, then how many
+``missions/sitl_tank_camera.yaml``).  Prints per run how fly ended and the truth-check verdict, then how many
 verdicts were wrong: docked declared with the truth beyond the tolerance at the instant judged (issue 29's
 figure 2), or a run ended undocked with the truth within it.
 
@@ -37,22 +37,21 @@ import time
 from pathlib import Path
 
 HOME = "33.810313,-118.393867,0,185"  # ArduSub's autotest home, at altitude 0 (the water surface)
-#: The battery; the barometers' noise is the mission's depth sensor's (:func:`_extra_parm`)
+#: The battery; the barometers' noise (:func:`_extra_parm`)
 EXTRA_PARM = "BATT_MONITOR 4\nSIM_BATT_VOLTAGE 16.0\n"
+#: A Bar30's depth resolution, m (the depth sensor's default, :class:`auvdock.sensing.settings.DepthSettings`)
+BAR30_STD_M = 0.002
 
 
-def _extra_parm(mission: str) -> str:
-    """SITL's extra parameters: the battery, and both barometers' noise at the mission's stated depth noise
-    (``sensors.depth.std_m``; fly reads the second barometer, SCALED_PRESSURE2, whose SITL noise
-    ``SIM_BAR2_RND`` is 0.2 m by default: a hundred times a Bar30's 2 mm, and the navigation filter then
-    leaves most depth readings out as implausible)."""
-    from auvdock.config.mission import load_mission
-
-    std = load_mission(mission).sensors.depth.std_m
+def _extra_parm() -> str:
+    """SITL's extra parameters: the battery, and both barometers' noise at a Bar30's 2 mm (fly reads the
+    second barometer, SCALED_PRESSURE2, whose SITL noise ``SIM_BAR2_RND`` is 0.2 m by default: a hundred
+    times a Bar30's).  What ArduSub then reports is the mission's to state (``missions/sitl_tank_camera.yaml``
+    measured 4-8.5 mm and 40 ms)."""
     # SITL's underwater barometer is sea water's (1024 kg/m^3, AP_Baro::SimpleUnderWaterAtmosphere): ArduSub,
     # and fly after it, convert pressure to depth with BARO_SPEC_GRAV (1.0 fresh water by default: every
     # depth 2.4 % deep, 2.4 cm at 1 m, twelve times the tank's stated 2 mm, and the filter left it out)
-    return f"{EXTRA_PARM}SIM_BARO_RND {std:g}\nSIM_BAR2_RND {std:g}\nBARO_SPEC_GRAV 1.024\n"
+    return f"{EXTRA_PARM}SIM_BARO_RND {BAR30_STD_M:g}\nSIM_BAR2_RND {BAR30_STD_M:g}\nBARO_SPEC_GRAV 1.024\n"
 
 
 def _stop(proc: subprocess.Popen, sig: int = signal.SIGTERM, wait_s: float = 20.0) -> None:
@@ -120,9 +119,9 @@ def main() -> int:
     print(f"{args.mission}, {args.controller}, {args.runs} runs against {args.ardusub}; files in {args.out}")
     false_docks = missed = flown = 0
     for i in range(args.first, args.first + args.runs):
-        d = (args.out / f"{args.mission}_{args.controller}_{i}").resolve()
+        d = (args.out / f"{Path(args.mission).stem}_{args.controller}_{i}").resolve()
         d.mkdir(parents=True, exist_ok=True)
-        (d / "extra.parm").write_text(_extra_parm(args.mission))
+        (d / "extra.parm").write_text(_extra_parm())
         camera = ["--camera", "udp:127.0.0.1:5600"] if args.camera else []
         physics = subprocess.Popen(
             [

@@ -92,6 +92,43 @@ def test_fly_captures_on_the_camera_alone_as_sim_does(loop, tmp_path) -> None:
     np.testing.assert_array_equal(rr.extras["camera_fixes"], r.extras["camera_fixes"])
 
 
+def test_a_camera_fix_is_stamped_its_stated_latency_before_the_frame_was_decoded(tmp_path) -> None:
+    """A vehicle's camera frame shows the scene ``sensors.dock_camera.latency_s`` before this process
+    decoded it (exposure, encoding, the network, FFmpeg's one-frame parser delay): its fix is stamped at
+    the scene's instant, as sim stamps its fixes."""
+    import cv2
+
+    from auvdock.camera.model import CameraModel, CameraMount, camera_from_dock
+    from auvdock.camera.render import render_view
+    from auvdock.camera.video_in import Frame
+    from auvdock.fly.camera_sensor import CameraSensor
+    from auvdock.runtime.clock import WallClock
+
+    m0 = load_mission(TANK_0P6)
+    eta = np.array([1.0, 0.0, 1.0, 0.0, 0.0, 0.0])  # 1 m in front of the dock, on its axis
+    dock = m0.build_dock(truth=False)
+    R_cd, t_cd = camera_from_dock(eta, dock.position(0.0), dock.heading_rad, CameraMount())
+    image = render_view(CameraModel.ideal(), m0.dock.marker_layout(), R_cd, t_cd)
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    cv2.imwrite(str(frames / "0.png"), image)
+    stamps = {}
+    ideal_camera = ROOT / "missions" / "cameras" / "ideal_640x480_80deg.yaml"
+    for latency in (0.0, 0.07):
+        path = write_mission(
+            tmp_path / f"m{latency}.yaml",
+            base=TANK_0P6,
+            camera={"source": str(frames), "calibration": str(ideal_camera)},
+            sensors={"dock_camera": {"enabled": True, "latency_s": latency}},
+        )
+        sensor = CameraSensor(load_mission(path), WallClock(), None, lambda: (None, None), lambda _: None)  # type: ignore[arg-type]
+        sensor.zero_s = 100.0  # the mission's t = 0 on the clock
+        fix = sensor.process(Frame(image, t_capture=102.5, index=0, pts_s=None))
+        assert fix is not None
+        stamps[latency] = fix.t
+    assert stamps == {0.0: pytest.approx(2.5), 0.07: pytest.approx(2.43)}
+
+
 def test_synthetic_camera_without_sim_state_says_what_is_missing(loop, tmp_path) -> None:
     """A vehicle sends no SIM_STATE: fly waits for it and names it; nothing is armed."""
     mission = synthetic_tank(tmp_path, fly={"telemetry_timeout_s": 3.0})

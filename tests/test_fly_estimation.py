@@ -136,6 +136,38 @@ def test_positions_fixed_in_an_outside_frame_are_moved_not_turned_by_the_compass
     assert covs[True][1, 1] > covs[False][1, 1] and covs[False][0, 1] == 0.0
 
 
+def test_a_stated_sensor_latency_stamps_the_reading_that_much_before_its_message() -> None:
+    """A message's time_boot_ms is when ArduSub sent it: a raw sensor's stated latency (sample to message)
+    moves its reading earlier by exactly that, as sim stamps its sensors' readings at the sample; the
+    position (ArduSub's EKF output, delay-compensated by the EKF) keeps its message's time."""
+    latency = {"depth": 0.04, "ahrs": 0.02, "imu": 0.01}
+    base = load_mission(TANK).with_updates(**{"estimation": "filter", "sensors.position.source": "acoustic"})
+    late = base.with_updates(**{f"sensors.{k}.latency_s": v for k, v in latency.items()})
+    x = np.zeros(12)
+    x[2] = 1.0
+    g = np.array([0.0, 0.0, -9.80665])
+    stamps = {}
+    for name, m in (("base", base), ("late", late)):
+        tel = TelemetrySensors(m.sensors, "filter")
+        tel.feed([(0, msg) for msg in _msgs(x, g, 1.0)])
+        tel.set_frame(m.start_state())
+        msgs = _msgs(x, g, 1.0)
+        for msg in msgs:
+            msg.time_boot_ms = 9_900  # sent 0.1 s before now on the vehicle's clock (offset 0)
+        tel.feed([(9_950_000, msg) for msg in msgs])
+        stamps[name] = {r.kind: r.t for r in tel.readings(5.0, now_us=10_000_000, clock_offset_s=0.0)}
+    kinds = ("attitude", "gyro", "accel", "depth", "position")
+    assert stamps["base"] == {k: pytest.approx(4.9) for k in kinds}
+    shift = {k: stamps["base"][k] - stamps["late"][k] for k in stamps["base"]}
+    assert shift == {
+        "attitude": pytest.approx(0.02),
+        "gyro": pytest.approx(0.01),
+        "accel": pytest.approx(0.01),
+        "depth": pytest.approx(0.04),
+        "position": pytest.approx(0.0),
+    }
+
+
 def test_truth_mode_needs_only_the_pose_and_skips_position_without_a_source() -> None:
     m = load_mission(TANK).with_updates(**{"sensors.position.source": "none"})
     tel = TelemetrySensors(m.sensors, "truth")
@@ -204,10 +236,16 @@ def test_a_flight_replays_to_the_same_controller_outputs(loop, tmp_path) -> None
     assert r.attrs["source"] == "fly replay:oracle.tlog"
     # another controller on the same data runs too (what a desk debugger wants), and differs
     # (not naive: with the flown mission's still-water forecast, Oracle's model is Naive's)
-    replay(tmp_path / "oracle.tlog", load_mission(flown), tmp_path / "seq.h5", controller="sequential")
+    seq, _ = replay(
+        tmp_path / "oracle.tlog", load_mission(flown), tmp_path / "seq.h5", controller="sequential"
+    )
     other = read_run(tmp_path / "seq.h5")
     n = np.flatnonzero(other.control_rows())
     assert not np.allclose(other.thrust_N[n], flight.thrust_N[n])
+    # ... to the flight's end, its navigation moved by the thrust that moved the vehicle (the flight's
+    # channels): the same estimates as the flight's, whatever the replayed controller asks for
+    assert (seq.reason, seq.message) == (result.reason, result.message)
+    np.testing.assert_allclose(other.extras["estimated_state"], est_b, rtol=0, atol=1e-9)
     # the command: one line per error, the comparison with the flight's results beside the tlog
     tlog = str(tmp_path / "oracle.tlog")
     res = loop.runner.invoke(app, ["replay", tlog, str(flown), "--out", str(tmp_path / "cli.h5")])

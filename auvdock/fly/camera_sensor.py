@@ -170,6 +170,11 @@ class CameraSensor(DetectionLoop):
         self._on_event = on_event
         self._latest_sim_state = latest_sim_state
         self.synthetic = c.source == "synthetic"
+        #: The camera's stated latency before this process has a frame (``sensors.dock_camera.latency_s``:
+        #: exposure, encoding, the network and FFmpeg's one-frame H.264 parser delay), s: a frame's fixes
+        #: are stamped that much before it was decoded, at the scene's instant as sim stamps them.
+        #: Zero for the synthetic camera, whose frames carry the truth's instant.
+        self.stream_latency_s = 0.0 if self.synthetic else float(s.latency_s)
         self.camera = mission.build_camera()  # the ideal camera for a synthetic one without a file
         self.layout = mission.dock.marker_layout()
         self.mount = c.mount.build()
@@ -259,7 +264,7 @@ class CameraSensor(DetectionLoop):
         t = (
             float(frame.pts_s)
             if self.synthetic and frame.pts_s is not None
-            else frame.t_capture - self.zero_s
+            else frame.t_capture - self.stream_latency_s - self.zero_s
         )
         return _Fix(
             t=t,

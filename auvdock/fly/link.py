@@ -518,9 +518,12 @@ class MavlinkLink:
         extra = [0] * 10 if self._override_v2 else []
         self.conn.mav.rc_channels_override_send(self.target_system, self.target_component, *ch8, *extra)
 
-    def send_override(self, channels_us: Any) -> None:
-        """RC_CHANNELS_OVERRIDE for channels 1..6 (us); channels 7 and 8 ignored (UINT16_MAX)."""
-        self._override([int(round(c)) for c in channels_us] + [UINT16_MAX, UINT16_MAX])
+    def send_override(self, channels_us: Any) -> tuple[int, ...]:
+        """RC_CHANNELS_OVERRIDE for channels 1..6 (us); channels 7 and 8 ignored (UINT16_MAX).  Returns the
+        channels 1..6 that went to the vehicle (those sent; a replayed link's are the flight's)."""
+        ch = tuple(int(round(c)) for c in channels_us)
+        self._override([*ch, UINT16_MAX, UINT16_MAX])
+        return ch
 
     def send_neutral(self) -> None:
         """Neutral overrides (1500 us on channels 1..6): zero thrust in MANUAL."""

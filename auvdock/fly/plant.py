@@ -140,11 +140,12 @@ class MavlinkPlant:
         return Observation(t, x, None, columns)
 
     def apply(self, t: float, command: ActuatorCommand) -> Applied:
-        """Send the command's channels (armed flight) or neutral (dry run, or no channels)."""
+        """Send the command's channels (armed flight) or neutral (dry run, or no channels); the thrust is
+        that of the channels that went to the vehicle (in a replay the flight's, which moved it)."""
         sent: Any = command.channels_us if self.arm and command.channels_us is not None else NEUTRAL_CHANNELS
-        self.io.send_channels(sent)
+        went = self.io.send_channels(sent)
         curve, n = self.vehicle.thruster_curve, self.vehicle.n_thrusters
-        applied = thrust_from_channels(sent, curve) if self._armed else np.zeros(n)
+        applied = thrust_from_channels(went, curve) if self._armed else np.zeros(n)
         return Applied(np.asarray(sent, dtype=float), applied)
 
     def advance(self, t: float, t_next: float) -> bool:

@@ -11,7 +11,11 @@ estimation stage, the same controller step, the same safety checks and results f
 the replayed controller outputs equal the flight's, to rounding, with the same code.
 
 Nothing is sent anywhere: arming, modes and RC overrides are no-ops, and the results file
-records the channels the controller asked for (a dry-run flight recorded neutral ones).
+records the channels the controller asked for (a dry-run flight recorded neutral ones).  The
+vehicle moved under the flight's channels, so those are what went to it in a replay too: the
+estimation stage is moved by the thrust of the flight's RC_CHANNELS_OVERRIDE at each step, and a
+replay with another mission or controller (what a desk debugger tries: another filter setting,
+another controller) estimates on the data as flown, to the flight's end.
 
 Limits: ``dock.source: camera`` flights are not replayable (the dock fixes come from camera
 frames, which the tlog does not hold); a tlog written before this marking (auvdock before
@@ -162,6 +166,8 @@ class ReplayLink:
         self.on_event: Callable[[str], None] | None = None
         self._msgs = _messages(self.path) if messages is None else messages
         self._i = 0
+        #: The channels the flight sent after the latest marker (:meth:`send_override`).
+        self._flown: tuple[int, ...] | None = None
         self.target_system = 1
         self.markers = 0
         own = [m.get_srcSystem() for _, m in self._msgs if _is_marker(m)]
@@ -210,10 +216,23 @@ class ReplayLink:
                     )
                 self.clock.t = stamp * 1e-6
                 self.markers += 1
+                self._flown = self._flown_after(self._i)
                 return stamp, taken
             if for_session(msg, self.target_system, self.sysid):
                 taken.append((stamp, msg))
         raise FlyAbortError("the tlog ends here (where the flight ended)")
+
+    def _flown_after(self, i: int) -> tuple[int, ...] | None:
+        """Channels 1..6 of the flight's first RC_CHANNELS_OVERRIDE from message ``i`` on, before its next
+        marker (None: it sent none there)."""
+        for _, msg in self._msgs[i:]:
+            if msg.get_srcSystem() != self.sysid:
+                continue
+            if _is_marker(msg):
+                return None
+            if msg.get_type() == "RC_CHANNELS_OVERRIDE":
+                return tuple(int(getattr(msg, f"chan{k}_raw")) for k in range(1, 7))
+        return None
 
     # -- what a session sends: nothing, in a replay ---------------------------------------------
     def request_rate(self, message_id: int, rate_hz: float) -> int:
@@ -246,8 +265,12 @@ class ReplayLink:
     def send_neutral(self) -> None:
         return None
 
-    def send_override(self, channels_us: Any) -> None:
-        return None
+    def send_override(self, channels_us: Any) -> tuple[int, ...]:
+        """Nothing is sent; the channels that went to the vehicle at this step are the flight's (its first
+        RC_CHANNELS_OVERRIDE after the step's marker), else those asked for.  A replay of another mission
+        or controller thus moves its estimator with the thrust that moved the vehicle."""
+        flown, self._flown = self._flown, None
+        return flown if flown is not None else tuple(int(round(c)) for c in channels_us)
 
     def release_overrides(self) -> None:
         return None

@@ -221,6 +221,11 @@ class TelemetrySensors:
         self._std = {kind: err.noise_std.copy() for kind, err in sensor_errors(sensors).items()}
         self._std["gyro"] = np.hypot(self._std["gyro"], GYRO_LSB_STD_RAD_S)
         self._std["accel"] = np.hypot(self._std["accel"], ACCEL_LSB_STD_M_S2)
+        # each raw sensor's stated latency, sample to message (s): a message's time_boot_ms is when ArduSub
+        # sent it, so its reading is stamped that much earlier, as sim's sensors stamp theirs.  Not the
+        # position's: LOCAL_POSITION_NED is ArduSub's EKF output, which allows for its sources' delays itself.
+        errors = sensor_errors(sensors)
+        self._latency = {kind: errors[kind].latency_s for kind in ("attitude", "gyro", "accel", "depth")}
 
     @property
     def required(self) -> tuple[tuple[str, ...], ...]:
@@ -429,11 +434,11 @@ class TelemetrySensors:
         fresh, self._new = self._new, {}
         new = {k: m for k, (m, _) in fresh.items()}
 
-        def at(mtype: str) -> float:
+        def at(mtype: str, kind: str) -> float:
             if now_us is None:
                 return t
             msg, stamp = fresh[mtype]
-            return t - age_s(msg, stamp, now_us, clock_offset_s)
+            return t - age_s(msg, stamp, now_us, clock_offset_s) - self._latency.get(kind, 0.0)
 
         out: list[Reading] = []
         frame = self._mission_frame()
@@ -441,7 +446,7 @@ class TelemetrySensors:
         att = new.get("ATTITUDE")
         if att is not None:
             value = np.array([att.roll, att.pitch, wrap_angle(att.yaw + frame.dpsi)], dtype=float)
-            out.append(Reading("attitude", at("ATTITUDE"), value, std["attitude"].copy()))
+            out.append(Reading("attitude", at("ATTITUDE", "attitude"), value, std["attitude"].copy()))
         imu_type = "SCALED_IMU2" if "SCALED_IMU2" in new else "RAW_IMU"
         imu = new.get(imu_type)
         self.specific_force = np.full(3, np.nan)
@@ -449,20 +454,20 @@ class TelemetrySensors:
             gyro = np.array([imu.xgyro, imu.ygyro, imu.zgyro], dtype=float) * MRAD_S
             f_b = np.array([imu.xacc, imu.yacc, imu.zacc], dtype=float) * MG_M_S2
             self.specific_force = f_b
-            out.append(Reading("gyro", at(imu_type), gyro, std["gyro"].copy()))
-            out.append(Reading("accel", at(imu_type), f_b.copy(), std["accel"].copy()))
+            out.append(Reading("gyro", at(imu_type, "gyro"), gyro, std["gyro"].copy()))
+            out.append(Reading("accel", at(imu_type, "accel"), f_b.copy(), std["accel"].copy()))
         depth_type, depth0 = self._depth_type, self._depth0  # set together by set_frame
         depth_msg = new.get(depth_type) if depth_type is not None else None
         if depth_msg is not None and depth_type is not None and depth0 is not None:
             d = frame.p_mission0[2] + (self._depth_of(depth_msg) - depth0)
-            out.append(Reading("depth", at(depth_type), np.array([d]), std["depth"].copy()))
+            out.append(Reading("depth", at(depth_type, "depth"), np.array([d]), std["depth"].copy()))
         pos = new.get("LOCAL_POSITION_NED")
         if pos is not None and self.sensors.position.source != "none":
             p = frame.position(np.array([pos.x, pos.y, pos.z]))
-            out.append(Reading("position", at("LOCAL_POSITION_NED"), p, std["position"].copy()))
+            out.append(Reading("position", at("LOCAL_POSITION_NED", "position"), p, std["position"].copy()))
         if pos is not None and self.sensors.dvl.enabled:
             a, _ = self.latest("ATTITUDE")
             theta = np.array([a.roll, a.pitch, wrap_angle(a.yaw + frame.dpsi)])
             v_b = rotation_of(theta).T @ (frame.R @ np.array([pos.vx, pos.vy, pos.vz]))
-            out.append(Reading("dvl", at("LOCAL_POSITION_NED"), v_b, std["dvl"].copy()))
+            out.append(Reading("dvl", at("LOCAL_POSITION_NED", "dvl"), v_b, std["dvl"].copy()))
         return out

@@ -119,11 +119,12 @@ class VehicleIO:
         """The link's health now."""
         return self.health.figures()
 
-    def send_channels(self, channels: Any) -> None:
-        """RC overrides for channels 1..6, remembered (the RC_CHANNELS check compares with them)."""
-        ch = tuple(int(round(c)) for c in channels)
-        self.link.send_override(ch)
-        self.state.sent_channels(int(self.clock.time() * 1e6), ch)
+    def send_channels(self, channels: Any) -> tuple[int, ...]:
+        """RC overrides for channels 1..6; returns the channels that went to the vehicle (a replay's: the
+        flight's), remembered (the RC_CHANNELS check compares with them)."""
+        went = self.link.send_override(tuple(int(round(c)) for c in channels))
+        self.state.sent_channels(int(self.clock.time() * 1e6), went)
+        return went
 
     def send_neutral(self) -> None:
         """Neutral overrides."""

@@ -44,7 +44,10 @@ class ImuSettings(Strict):
     rate_hz: PosFloat = Field(
         default=50.0, description="samples used per second, Hz (at most one per control step)"
     )
-    latency_s: NonNegFloat = Field(default=0.0, description="sample to use, s")
+    latency_s: NonNegFloat = Field(
+        default=0.0,
+        description="sample to use, s (fly stamps each reading this much before its message's time_boot_ms)",
+    )
     accel_noise_m_s2: NonNegFloat = Field(
         default=0.0044,
         description="accelerometer noise std, m/s^2 (ICM-20602 datasheet: 100 ug/sqrt(Hz), "
@@ -71,7 +74,10 @@ class AhrsSettings(Strict):
     """Attitude from the autopilot's attitude estimate (ArduSub EKF3: ATTITUDE messages)."""
 
     rate_hz: PosFloat = Field(default=25.0, description="ATTITUDE rate, Hz (what fly requests)")
-    latency_s: NonNegFloat = Field(default=0.0, description="sample to use, s")
+    latency_s: NonNegFloat = Field(
+        default=0.0,
+        description="sample to use, s (fly stamps each reading this much before its message's time_boot_ms)",
+    )
     roll_pitch_std_rad: NonNegFloat = Field(
         default=0.0087, description="roll and pitch error std, rad (assumed 0.5 deg: no published figure)"
     )
@@ -85,7 +91,10 @@ class DepthSettings(Strict):
     """Depth from the pressure sensor (Blue Robotics Bar30, MS5837-30BA: SCALED_PRESSURE2)."""
 
     rate_hz: PosFloat = Field(default=25.0, description="samples per second, Hz")
-    latency_s: NonNegFloat = Field(default=0.0, description="sample to use, s")
+    latency_s: NonNegFloat = Field(
+        default=0.0,
+        description="sample to use, s (fly stamps each reading this much before its message's time_boot_ms)",
+    )
     std_m: NonNegFloat = Field(default=0.002, description="depth noise std, m (Bar30: 2 mm resolution)")
 
 
@@ -160,7 +169,10 @@ class DockCameraSettings(Strict):
     )
     rate_hz: PosFloat = Field(default=15.0, description="frames per second, Hz (the synthetic camera's)")
     latency_s: NonNegFloat = Field(
-        default=0.1, description="capture to fix, s (fly measured 98 ms median on the 2-core machine)"
+        default=0.1,
+        description="the scene to its fix, s (fly measured 98 ms median on the 2-core machine). fly stamps "
+        "each frame's fix this much before it decoded the frame (the part before: exposure, encoding, the "
+        "network, FFmpeg's one-frame H.264 parser delay) and its detection time comes on top, measured",
     )
     visibility_m: PosFloat = Field(
         default=8.0,
