@@ -580,9 +580,9 @@ class Mission(Strict):
 
     def build_vehicle(self) -> Vehicle:
         """The vehicle the mission names, with its overrides."""
-        from auvdock.vehicle import Vehicle  # the model (CasADi): when built, not when read
+        from auvdock.vehicle.vehicle import shared_vehicle  # the model (CasADi): when built, not when read
 
-        return Vehicle(self.vehicle_params())
+        return shared_vehicle(self.vehicle_params())
 
     def build_camera(self):
         """The camera model (:class:`auvdock.camera.CameraModel`) of ``camera.calibration``.
@@ -1016,8 +1016,7 @@ def parse_mission(data: Any, source: str | Path = "<mission>") -> Mission:
         raise MissionError(
             source,
             "simulation.actuators",
-            f"ardusub: ArduSub's VECTORED_6DOF mixer drives 8 thrusters; {params.name} has {n} "
-            "(use ideal)",
+            f"ardusub: ArduSub's VECTORED_6DOF mixer drives 8 thrusters; {params.name} has {n} (use ideal)",
         )
     return m
 

@@ -133,6 +133,25 @@ class PerceptionLaw:
         if method not in self.METHODS:
             raise ValueError(f"unknown perception-law method {method!r} (known: {', '.join(self.METHODS)})")
         self.method = method
+        self.wrench_max = np.asarray(wrench_max, dtype=float)
+        signs = np.array(list(itertools.product((-1.0, 1.0), repeat=6)))
+        self._corners = signs * self.wrench_max  # (64, 6)
+        defining = (dt, self.wrench_max, np.asarray(R_inv, dtype=float), float(gamma), method)
+        built, self.build = vehicle.built(
+            "perception_law", defining, lambda: self._make(vehicle, dt, R_inv, gamma, method)
+        )
+        if method == "corners":
+            self._corner_values = BufferedFunction(built)
+        else:
+            self._solver = built
+        self._B_pinv = np.linalg.pinv(vehicle.allocation)
+        self._prev = np.zeros(6)
+
+    def _make(
+        self, vehicle: Vehicle, dt: float, R_inv: np.ndarray, gamma: float, method: str
+    ) -> tuple[ca.Function, str]:
+        """The law's function (``corners``: the objective at every corner at once) or solver, and how it
+        runs (compiled or not): nothing of a run's state."""
         m = vehicle.model
         tau = ca.SX.sym("tau", 6)
         x = ca.SX.sym("x", vehicle.nx)
@@ -146,18 +165,13 @@ class PerceptionLaw:
         scale = ca.SX.sym("scale")
         obj = -information_lower_bound(G_next) / scale
         params = ca.vertcat(x, f_ned, g6, scale)
-        self.wrench_max = np.asarray(wrench_max, dtype=float)
         if method == "corners":
-            signs = np.array(list(itertools.product((-1.0, 1.0), repeat=6)))
-            self._corners = signs * self.wrench_max  # (64, 6)
             f_obj = ca.Function("perception_obj", [tau, params], [obj])
             n = self._corners.shape[0]
             values = f_obj.map(n)(ca.DM(self._corners.T), ca.repmat(params, 1, n))
-            fn = ca.Function("perception_corners", [params], [values])
-            corner_values, self.build = compiled_function(fn)
-            self._corner_values = BufferedFunction(corner_values)
-        elif method == "sqp":
-            self._solver, self.build = compiled_nlpsol(
+            return compiled_function(ca.Function("perception_corners", [params], [values]))
+        if method == "sqp":
+            return compiled_nlpsol(
                 "perception",
                 "sqpmethod",
                 {"x": tau, "f": obj, "p": params},
@@ -175,19 +189,16 @@ class PerceptionLaw:
                     "tol_du": 1e-8,
                 },
             )
-        else:
-            self._solver, self.build = compiled_nlpsol(
-                "perception",
-                "ipopt",
-                {"x": tau, "f": obj, "p": params},
-                {
-                    "print_time": False,
-                    "error_on_fail": False,
-                    "ipopt": {"print_level": 0, "sb": "yes", "max_iter": 50, "tol": 1e-8},
-                },
-            )
-        self._B_pinv = np.linalg.pinv(vehicle.allocation)
-        self._prev = np.zeros(6)
+        return compiled_nlpsol(
+            "perception",
+            "ipopt",
+            {"x": tau, "f": obj, "p": params},
+            {
+                "print_time": False,
+                "error_on_fail": False,
+                "ipopt": {"print_level": 0, "sb": "yes", "max_iter": 50, "tol": 1e-8},
+            },
+        )
 
     def reset(self) -> None:
         self._prev = np.zeros(6)
@@ -303,6 +314,7 @@ class FSEMPC:
                 "full",
                 solver,
                 objective_extra=info_term,
+                objective_key=("information reward", alpha, dt, R_inv, gamma),
                 extra_params=11,
                 extra_hessian=solver == "ipopt",
                 state_from_flow=True,

@@ -64,13 +64,13 @@ import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 import casadi as ca
 import numpy as np
 
 from auvdock.controllers.entry import EntryCorridor, entry_residuals
-from auvdock.controllers.solvers import SOLVERS, Problem, SolveResult
+from auvdock.controllers.solvers import SOLVERS, NLPSolver, Problem, SolveResult
 from auvdock.controllers.status import STATUS_FAILED, STATUS_FALLBACK_ZERO, STATUS_NOT_CONVERGED, STATUS_OK
 from auvdock.estimation.water_ahead import WaterAhead
 from auvdock.runtime.codegen import compiled_function
@@ -131,6 +131,23 @@ class MPCResult:
     extras: dict[str, float] = field(default_factory=dict)
 
 
+@dataclass(frozen=True)
+class _Functions:
+    """What :class:`DockingMPC` builds from its settings, with nothing of a run's state: the parameter
+    vector's and the decision vector's lengths, the gaps' count, the stage layout, the one-step prediction
+    (CasADi), the solver and the index arrays of the states, previous inputs and inputs in ``w``."""
+
+    n_params: int
+    nw: int
+    ng: int
+    dims: dict
+    step: ca.Function
+    solver: NLPSolver
+    ix: np.ndarray
+    iv: np.ndarray
+    iu: np.ndarray
+
+
 class DockingMPC:
     """Paper eq. (10) MPC for docking with a heaving dock.
 
@@ -167,6 +184,11 @@ class DockingMPC:
     objective_extra : callable, optional
         ``f(X, U, params_sym) -> SX`` added to the objective (Optimized FSE-MPC's
         ``-alpha F``); ``extra_params`` is then the number of extra parameters it reads.
+    objective_key : optional
+        What defines ``objective_extra`` (numbers, arrays: :func:`auvdock.runtime.fingerprint.digest`):
+        with it, or without an extra objective, the problem's functions are built once per vehicle and
+        problem and shared by every run (:meth:`auvdock.vehicle.Vehicle.built`); without it, an extra
+        objective is built for this controller alone.
     extra_hessian : bool
         Add the exact Hessian of ``objective_extra`` to the Gauss-Newton matrix.  False
         gives it zero curvature (the QP stays convex; the term acts through its gradient).
@@ -213,6 +235,7 @@ class DockingMPC:
         tol: float = 1e-6,
         hessian: str = "gauss-newton",
         objective_extra=None,
+        objective_key: Any = None,
         extra_params: int = 0,
         extra_hessian: bool = True,
         fallback_steps: int = 2,
@@ -257,11 +280,34 @@ class DockingMPC:
         B = np.asarray(vehicle.allocation, dtype=float)
         self.dist_max = np.abs(B) @ np.maximum(np.abs(vehicle.thrust_min), np.abs(vehicle.thrust_max))
         self.entry = entry
-        self._build(objective_extra, solver, max_iter, tol, hessian, qp)
+        if solver not in SOLVERS:
+            raise ValueError(f"unknown solver {solver!r} (known: {', '.join(SOLVERS)})")
+        if hessian not in ("gauss-newton", "exact"):
+            raise ValueError(f"unknown hessian {hessian!r} (known: gauss-newton, exact)")
+
+        def build() -> _Functions:
+            return self._build(objective_extra, solver, max_iter, tol, hessian, qp)
+
+        if objective_extra is not None and objective_key is None:
+            f = build()  # an extra objective nothing names: built for this controller alone
+        else:  # the same functions for every run of this vehicle and problem (Vehicle.built)
+            defining = (
+                self.N, self.dt, self.prediction, self.Q, self.R, self.P, self.n_extra, self._extra_hessian,
+                self.entry, objective_key, solver, int(max_iter), float(tol), hessian, qp,
+            )  # fmt: skip
+            f = vehicle.built("docking_mpc", defining, build)
+        self._n_params, self._nw, self._ng, self.dims = f.n_params, f.nw, f.ng, f.dims
+        self._step_fn = BufferedFunction(f.step)
+        self._solver, self.build = f.solver, f.solver.build
+        self._ix, self._iv, self._iu = f.ix, f.iv, f.iu
+        self._lb_static, self._ub_static = self._bound_template()
         self.reset()
 
     # ------------------------------------------------------------------------------------
-    def _build(self, objective_extra, solver: str, max_iter: int, tol: float, hessian: str, qp: str) -> None:
+    def _build(
+        self, objective_extra, solver: str, max_iter: int, tol: float, hessian: str, qp: str
+    ) -> _Functions:
+        """The problem's functions and solver, from the controller's settings (nothing of a run's state)."""
         N, dt = self.N, self.dt
         model = self.vehicle.model
         nx, nu = self.nx, self.nu
@@ -283,7 +329,7 @@ class DockingMPC:
             x0, u_prev, ca.vec(dock_p), ca.vec(dock_v), psi_ref, flow, u_off, extra, dist,
             ca.vec(water_v), ca.vec(water_a), entry_p,
         )  # fmt: skip
-        self._n_params = params.shape[0]
+        n_params = params.shape[0]
 
         # one-step prediction, with the lumped disturbance [R^T f_n; m_b] (zero: the paper's model)
         xs = ca.SX.sym("xs", nx)
@@ -302,7 +348,7 @@ class DockingMPC:
             f_pred = lambda x, u: model.dynamics(x, u, flow, acc, tau_d(x), acc)  # noqa: E731
         step = ca.Function("mpc_model_step", [xs, us, flow, acc, dist], [rk4(f_pred, xs, dt, 1, us)])
         # the offset-free observer's one-step prediction, evaluated every control step: compiled
-        self._step_fn = BufferedFunction(compiled_function(step)[0])
+        step_fn = compiled_function(step)[0]
 
         # stage-structured layout: w = [x~_0, u_0, x~_1, u_1, ..., x~_N] with the augmented state
         # x~_k = [x_k; v_k], v_k the input of the step before (v_0 = u_prev, fixed by bounds), so
@@ -371,30 +417,31 @@ class DockingMPC:
         for k in range(N + 1):
             blocks += [X[:, k], V[:, k]] + ([U[:, k]] if k < N else [])
         w = ca.vertcat(*blocks)
-        self._nw = w.shape[0]
-        self._ng = (nx + nu) * N
-        self.dims = {"N": N, "nx": [nx + nu] * (N + 1), "nu": [nu] * N + [0], "ng": [0] * (N + 1)}
+        dims = {"N": N, "nx": [nx + nu] * (N + 1), "nu": [nu] * N + [0], "ng": [0] * (N + 1)}
         H_gn = None
         if hessian == "gauss-newton":
             Jr = ca.jacobian(r, w)
             H_gn = 2 * ca.mtimes(Jr.T, ca.mtimes(ca.diag(W), Jr))
             if objective_extra is not None and self._extra_hessian:
                 H_gn = H_gn + ca.hessian(J_extra, w)[0]
-        elif hessian != "exact":
-            raise ValueError(f"unknown hessian {hessian!r} (known: gauss-newton, exact)")
-        if solver not in SOLVERS:
-            raise ValueError(f"unknown solver {solver!r} (known: {', '.join(SOLVERS)})")
-        problem = Problem(w, params, J, ca.vertcat(*g), H_gn, hessian, self.dims, qp)
-        self._solver = SOLVERS[solver].build(problem, max_iter, tol)
-        self.build = self._solver.build
-
+        problem = Problem(w, params, J, ca.vertcat(*g), H_gn, hessian, dims, qp)
         # index helpers into w
         stage = nx + 2 * nu
         starts = stage * np.arange(N + 1)[:, None]
-        self._ix = starts + np.arange(nx)
-        self._iv = starts + nx + np.arange(nu)
-        self._iu = starts[:N] + nx + nu + np.arange(nu)
-        self._lb_static, self._ub_static = self._bound_template()
+        ix, iv, iu = starts + np.arange(nx), starts + nx + np.arange(nu), starts[:N] + nx + nu + np.arange(nu)
+        for a in (ix, iv, iu):
+            a.flags.writeable = False  # shared by every controller built on them
+        return _Functions(
+            n_params=n_params,
+            nw=w.shape[0],
+            ng=(nx + nu) * N,
+            dims=dims,
+            step=step_fn,
+            solver=SOLVERS[solver].build(problem, max_iter, tol),
+            ix=ix,
+            iv=iv,
+            iu=iu,
+        )
 
     # ------------------------------------------------------------------------------------
     def reset(self) -> None:

@@ -369,14 +369,18 @@ class FlowEstimator:
         self.meas_noise = np.array([accel_noise_var] * 3 + [depth_rate_noise_var], dtype=float)
         self.gamma = float(forgetting_factor)
         m = vehicle.model
-        xr = ca.SX.sym("xr", NX)
-        u = ca.SX.sym("u", vehicle.n_thrusters)
-        zero = ca.DM.zeros(3)
-        prop = ca.Function(
-            "nu_r_prop", [xr, u], [rk4(lambda x, uu: m.relative_dynamics(x, uu, zero), xr, self.dt, 2, u)]
-        )
-        # called every step: compiled (cached), on bound arrays (no conversion per call)
-        self._prop = BufferedFunction(compiled_function(prop)[0])
+
+        def prop() -> ca.Function:
+            xr = ca.SX.sym("xr", NX)
+            u = ca.SX.sym("u", vehicle.n_thrusters)
+            zero = ca.DM.zeros(3)
+            fn = ca.Function(
+                "nu_r_prop", [xr, u], [rk4(lambda x, uu: m.relative_dynamics(x, uu, zero), xr, self.dt, 2, u)]
+            )
+            return compiled_function(fn)[0]
+
+        # called every step: compiled (cached; built once per vehicle and step), on bound arrays
+        self._prop = BufferedFunction(vehicle.built("flow_filter_prop", (self.dt,), prop))
         self._rot = BufferedFunction(m.function("rotation"))
         self.kf: FlowKalmanFilter | None = None
         self._prev: tuple[np.ndarray, np.ndarray] | None = None

@@ -415,15 +415,26 @@ class NavigationFilter:
         self.waves = waves
         #: The filter state's dimension: :data:`NZ`, or :data:`NZ_WAVES` with a wave model.
         self.nz = nz = NZ_WAVES if waves is not None else NZ
-        meas, curv, fn = _step_functions(
-            vehicle,
+
+        def build() -> tuple[ca.Function, str, ca.Function, ca.Function]:
+            meas, curv, fn = _step_functions(
+                vehicle,
+                settings.substeps,
+                settings.second_order_prediction,
+                (self._R_bc, self._t_bc),
+                waves is not None,
+            )
+            step, how = compiled_function(fn)
+            return step, how, compiled_function(meas)[0], compiled_function(curv)[0]
+
+        defining = (
             settings.substeps,
             settings.second_order_prediction,
-            (self._R_bc, self._t_bc),
+            self._R_bc,
+            self._t_bc,
             waves is not None,
         )
-        self._fn, self.build = compiled_function(fn)
-        self._meas, _ = compiled_function(meas)
+        self._fn, self.build, self._meas, curv = vehicle.built("navigation_filter", defining, build)
         assert all(self._fn.sparsity_out(i).is_dense() for i in range(4))
         self._qd = process_density(settings)
         self._in_wave = np.array([1.0, 0.5])
@@ -444,7 +455,7 @@ class NavigationFilter:
         self._in_m = np.zeros(3)  # the dock's offset from its anchor at the evaluation's time
         # the measurements' second-order covariance at the prediction (zero-copy)
         self._second_order = bool(settings.second_order_prediction)
-        self._curv = BufferedFunction(compiled_function(curv)[0])
+        self._curv = BufferedFunction(curv)
         self._c_out = np.zeros((_NY, _NY))
         self._c_in_z = np.zeros(nz)
         self._c_in_P = np.zeros((nz, nz))

@@ -230,12 +230,16 @@ class NavigationStage:
         rot = vehicle.model.function("rotation")
         self._rot = lambda angles: np.asarray(rot(angles))
         model = vehicle.model
-        xs = ca.SX.sym("x", NX)
-        us = ca.SX.sym("u", vehicle.n_thrusters)
-        vc = ca.SX.sym("flow_ned", 3)
-        zero = ca.DM.zeros(3)
-        x_next = rk4(lambda x, u, c: model.dynamics(x, u, c, zero), xs, dt, 2, us, vc)
-        self._predict = ca.Function("stage_predict", [xs, us, vc], [x_next])
+
+        def predict() -> ca.Function:
+            xs = ca.SX.sym("x", NX)
+            us = ca.SX.sym("u", vehicle.n_thrusters)
+            vc = ca.SX.sym("flow_ned", 3)
+            zero = ca.DM.zeros(3)
+            x_next = rk4(lambda x, u, c: model.dynamics(x, u, c, zero), xs, self.dt, 2, us, vc)
+            return ca.Function("stage_predict", [xs, us, vc], [x_next])
+
+        self._predict = vehicle.built("stage_predict", (self.dt,), predict)
         self.reset()
 
     def reset(self) -> None:

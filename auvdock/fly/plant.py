@@ -145,7 +145,7 @@ class MavlinkPlant:
         sent: Any = command.channels_us if self.arm and command.channels_us is not None else NEUTRAL_CHANNELS
         went = self.io.send_channels(sent)
         curve, n = self.vehicle.thruster_curve, self.vehicle.n_thrusters
-        applied = thrust_from_channels(went, curve) if self._armed else np.zeros(n)
+        applied = thrust_from_channels(np.asarray(went, dtype=float), curve) if self._armed else np.zeros(n)
         return Applied(np.asarray(sent, dtype=float), applied)
 
     def advance(self, t: float, t_next: float) -> bool:

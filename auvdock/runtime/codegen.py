@@ -63,6 +63,8 @@ __all__ = [
     "clear_cache",
     "set_reporter",
     "background_builds",
+    "background_pending",
+    "environment",
     "wait_for_background",
     "COMPILE_MODES",
     "CFLAGS",
@@ -219,6 +221,18 @@ def _start_background(
     )
     _background.append(proc)
     return True
+
+
+def environment() -> tuple[str, str, str, str]:
+    """What decides how a function is built besides its definition: ``$AUVDOCK_COMPILE``, the cache
+    directory, the compiler and its flags (a caller that keeps built functions keys them by it too)."""
+    return compile_mode(), str(cache_dir()), find_compiler() or "", " ".join(CFLAGS)
+
+
+def background_pending() -> bool:
+    """Whether a background compile this process started is still running (what runs on its function
+    meanwhile is uncompiled: a caller that keeps built functions should not keep those)."""
+    return any(proc.poll() is None for proc in _background)
 
 
 def background_builds() -> list[subprocess.Popen]:

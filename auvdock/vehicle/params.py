@@ -8,6 +8,7 @@ Every quantity carries its unit in its key; hydrodynamic coefficients are magnit
 from __future__ import annotations
 
 import copy
+import functools
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -213,12 +214,19 @@ def _read_raw(name_or_path: str | Path) -> dict[str, Any]:
             raise VehicleParamsError("vehicle", f"parameter file {s} does not exist")
         text = p.read_text()
     try:
-        d = load_yaml_strict(text)
+        d = _parsed(text)
     except yaml.YAMLError as e:
         raise VehicleParamsError("vehicle", f"parameter file {s} is not valid YAML: {e}") from None
     if not isinstance(d, dict):
         raise VehicleParamsError("vehicle", f"parameter file {s} must hold a mapping")
-    return d
+    return copy.deepcopy(d)
+
+
+@functools.lru_cache(maxsize=16)
+def _parsed(text: str) -> Any:
+    """A parameter file's YAML, parsed once per text (every run of a sweep reads the same file; the
+    caller copies it)."""
+    return load_yaml_strict(text)
 
 
 def load_params(

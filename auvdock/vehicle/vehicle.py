@@ -15,16 +15,35 @@ T1..Tn (N), n from the vehicle file; ``flow_ned`` = water velocity (north, east,
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any, Protocol, TypeVar
 
 import casadi as ca
 import numpy as np
 
+from auvdock.runtime.codegen import background_pending, environment
+from auvdock.runtime.fingerprint import Memo, digest
 from auvdock.vehicle.model import VehicleModel, rk4
 from auvdock.vehicle.params import VehicleParams, load_params
 from auvdock.vehicle.state import ETA, LIN, NX, POS
 from auvdock.vehicle.thrusters import ThrusterCurve
+
+T = TypeVar("T")
+
+#: Truth steppers a vehicle keeps (per step length, substeps and flow field).
+_STEPPERS = 16
+
+
+def _flow_key(flow: Any) -> Any:
+    """A flow field by value where it is data (a frozen dataclass of numbers: every run's still water or
+    constant current is one key), else by identity."""
+    if flow is None:
+        return None
+    try:
+        return digest(flow)
+    except TypeError:
+        return ("id", id(flow))
 
 
 class FlowField(Protocol):
@@ -34,7 +53,8 @@ class FlowField(Protocol):
         """The current (3,) in {n}, m/s, at position ``p_ned`` (3,) in {n}, m, and time ``t``, s (CasADi)."""
         ...
 
-__all__ = ["Vehicle", "load_vehicle"]
+
+__all__ = ["Vehicle", "load_vehicle", "shared_vehicle"]
 
 
 class Vehicle:
@@ -44,6 +64,19 @@ class Vehicle:
         self.params = params
         self.model = VehicleModel(params)
         self._steppers: dict[tuple[Any, ...], ca.Function] = {}
+        self._flow_refs: dict[tuple[Any, ...], Any] = {}
+        self._built = Memo(32)
+
+    def built(self, name: str, parts: Any, build: Callable[[], T]) -> T:
+        """What a controller or a filter builds from this vehicle's model (CasADi functions, compiled or
+        not, and solvers without state of their own), kept: ``build()`` the first time ``name`` with
+        ``parts`` (everything else that defines it: numbers, arrays, settings;
+        :func:`auvdock.runtime.fingerprint.digest`) is asked for in this thread, the same object later.
+        A sweep's or a comparison's runs of one vehicle (:func:`shared_vehicle`) thus build them once.
+        Not kept while a background compile runs (``AUVDOCK_COMPILE=auto`` on a cold cache: the functions
+        are uncompiled until it ends; the runs after it load the compiled ones)."""
+        defining = (parts, environment())  # AUVDOCK_COMPILE, the cache, the compiler: how it is built
+        return self._built.get(name, defining, build, keep=lambda: not background_pending())
 
     @property
     def name(self) -> str:
@@ -104,13 +137,12 @@ class Vehicle:
         vehicle's position and time inside every RK4 stage, and its rate of change along
         the path, ``dv_c/dt = dv/dt + (dv/dp) R nu_1``, enters the added-mass term.
         """
-        key = (float(dt), int(substeps), id(flow))
+        key = (float(dt), int(substeps), _flow_key(flow))
         if key in self._steppers:
             return self._steppers[key]
         x, u, t, z = self._truth_rk4(float(dt), substeps, flow)
         fn = ca.Function("truth_step", [x, u, t], [z[0:NX]], ["x", "u", "t"], ["x_next"])
-        self._steppers[key] = fn
-        self._flow_refs = getattr(self, "_flow_refs", []) + [flow]  # keep id() keys valid
+        self._keep_stepper(key, fn, flow)
         return fn
 
     def stepper_any_dt(self, substeps: int = 4, flow: FlowField | None = None) -> ca.Function:
@@ -119,15 +151,24 @@ class Vehicle:
         One function for every step length ``dt`` (s), for a caller whose step changes from
         one call to the next (ArduPilot SITL's frame rate); same model, same RK4.
         """
-        key = ("any_dt", int(substeps), id(flow))
+        key = ("any_dt", int(substeps), _flow_key(flow))
         if key in self._steppers:
             return self._steppers[key]
         h = ca.SX.sym("dt")
         x, u, t, z = self._truth_rk4(h, substeps, flow)
         fn = ca.Function("truth_step_dt", [x, u, t, h], [z[0:NX]], ["x", "u", "t", "dt"], ["x_next"])
-        self._steppers[key] = fn
-        self._flow_refs = getattr(self, "_flow_refs", []) + [flow]  # keep id() keys valid
+        self._keep_stepper(key, fn, flow)
         return fn
+
+    def _keep_stepper(self, key: tuple[Any, ...], fn: ca.Function, flow: FlowField | None) -> None:
+        """Keep a truth stepper; the vehicle serves many runs (:func:`shared_vehicle`), so a flow known only
+        by identity is kept alive with it (its id stays valid) and the oldest go beyond :data:`_STEPPERS`."""
+        self._steppers[key] = fn
+        self._flow_refs[key] = flow
+        while len(self._steppers) > _STEPPERS:
+            old = next(iter(self._steppers))
+            del self._steppers[old]
+            self._flow_refs.pop(old, None)
 
     def stepper_in_current(self, substeps: int = 2) -> ca.Function:
         """``(x[12], u[n], v_c[3], dt) -> x(t + dt)``: the truth model's RK4 (``substeps`` steps over
@@ -161,7 +202,7 @@ class Vehicle:
         :class:`auvdock.world.plant.TruthPlant` integrates it with RK4, evaluating the sea with
         numpy at every stage.
         """
-        key = ("sea_stage", id(flow))
+        key = ("sea_stage", _flow_key(flow))
         if key in self._steppers:
             return self._steppers[key]
         m = self.model
@@ -190,8 +231,7 @@ class Vehicle:
             ["x", "u", "t", "wave_velocity_ned", "wave_accel_ned", "wave_gradient_ned", "wave_current_ned"],
             ["xdot"],
         )
-        self._steppers[key] = fn
-        self._flow_refs = getattr(self, "_flow_refs", []) + [flow]  # keep id() keys valid
+        self._keep_stepper(key, fn, flow)
         return fn
 
     def _truth_rk4(
@@ -220,10 +260,19 @@ class Vehicle:
         return x, u, t, rk4(f, ca.vertcat(x, t), dt, substeps)
 
 
+_VEHICLES = Memo(8)
+
+
+def shared_vehicle(params: VehicleParams) -> Vehicle:
+    """The vehicle of ``params``: one object per set of parameters (by value) and thread, so that the
+    functions its controllers and filters build (:meth:`Vehicle.built`) serve every run of it."""
+    return _VEHICLES.get("vehicle", params, lambda: Vehicle(params))
+
+
 def load_vehicle(
     name_or_path: str | Path = "bluerov2_heavy",
     overrides: dict[str, Any] | None = None,
     thruster_voltage_V: int | None = None,
 ) -> Vehicle:
     """Load a vehicle by preset name or parameter-file path; see :func:`load_params`."""
-    return Vehicle(load_params(name_or_path, overrides, thruster_voltage_V))
+    return shared_vehicle(load_params(name_or_path, overrides, thruster_voltage_V))
