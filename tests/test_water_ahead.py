@@ -47,7 +47,7 @@ def test_the_true_sea_ahead_is_airys_deep_water_orbital_motion():
     k = omega**2 / GRAVITY_M_S2
     sea = WaveComponents([a], [omega], [0.0], [phase])  # deep water, travelling north
     p = np.array([5.0, -2.0, d])
-    water = WaterAhead.from_sea(np.array([0.2, 0.1, 0.0]), sea, p, 10.0, 0.25, 6)
+    water = WaterAhead.from_sea(np.array([0.2, 0.1, 0.0]), sea, p, 10.0, 0.25 * np.arange(6))
     t = 10.0 + 0.25 * np.arange(6)
     th = k * p[0] + phase - omega * t
     amp = a * omega * math.exp(-k * d)

@@ -207,7 +207,7 @@ def sim(
     solver = resolve_solver(m.controller.solver.name, m.controller.type, m.controller.variant)
     console.print(
         f"[bold]{escape(m.name)}[/bold]: {escape(water_line(m))}; controller [bold]{name}[/bold] "
-        f"(N = {m.controller.horizon_steps}, dt = {m.controller.dt_s} s, {solver})"
+        f"({m.controller.horizon_text()}, {solver})"
     )
     earlier_files = [p for p in [h5, *sorted(out_dir.glob(f"{stem}_*.png"))] if p.is_file()]
     if earlier_files:  # said before they go (compare and replay refuse; a rerun of sim replaces)

@@ -44,6 +44,8 @@ def build_mpc(
         dock,
         horizon=settings.horizon_steps,
         dt=settings.dt_s,
+        coarse_steps=settings.coarse.steps,
+        coarse_dt=settings.coarse.dt_s,
         Q=settings.weights.Q,
         R=R_newton,
         P=settings.weights.P,
@@ -98,7 +100,7 @@ class BaselineMPC:
         if self.sea is not None and est.flow_ned is not None:
             # told the true sea: the true current held plus the sea's water ahead at the vehicle
             p = np.asarray(est.state[0:3], dtype=float)
-            waves = WaterAhead.from_sea(np.zeros(3), self.sea, p, est.t, self.mpc.dt, self.mpc.N)
+            waves = WaterAhead.from_sea(np.zeros(3), self.sea, p, est.t, self.mpc.offsets_s)
             current = np.asarray(est.flow_ned, dtype=float) - waves.velocity_ned[0]  # the true water now
             water = WaterAhead(waves.velocity_ned + current, waves.accel_ned)
         r = self.mpc.solve(

@@ -296,15 +296,17 @@ class FSEMPC:
         else:
             alpha = float(settings.alpha)
 
-            def info_term(X, U, params, extra):
+            def info_term(X, U, params, extra, stage_dt):
                 G = _sym_from6(extra[0:6])
                 F0 = extra[6]
                 depth_row = extra[7:10]
                 weight = extra[10]  # 1 (paper); robust: the share of the prior uncertainty left
                 J = 0
                 for k in range(1, X.shape[1]):
-                    G = gramian_step(G, X[ANG, k], depth_row, dt, R_inv, gamma, ca)
-                    J += information_lower_bound(G) - F0
+                    # the filter reads every control period: a coarse stage's periods at its end's rate
+                    for _ in range(round(float(stage_dt[k - 1]) / dt)):
+                        G = gramian_step(G, X[ANG, k], depth_row, dt, R_inv, gamma, ca)
+                        J += information_lower_bound(G) - F0
                 return -alpha * weight * J
 
             self.mpc = build_mpc(
@@ -354,7 +356,7 @@ class FSEMPC:
         tau = np.zeros(6)
         t0 = time.perf_counter()
         # the slow current held, plus the waves' velocity run forward on the filter's wave model
-        water = meas.water_ahead(est.flow_ned, self.mpc.dt, self.mpc.N)
+        water = meas.water_ahead(est.flow_ned, self.mpc.offsets_s)
         # the estimator's state is [eta; nu_r + f; nu_2] (ETA, LIN, ANG)
         if self.law is not None:
             with timing.part("perception"):

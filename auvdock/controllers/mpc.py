@@ -158,9 +158,14 @@ class DockingMPC:
     dock : DockMotion
         The dock whose motion is known over the horizon (Assumption 2).
     horizon : int
-        N, steps.
+        Steps of ``dt`` (the horizon's fine part).
     dt : float
-        Step, s.
+        Step, s: the control period.
+    coarse_steps, coarse_dt : int, float
+        The horizon's coarse tail: ``coarse_steps`` more steps of ``coarse_dt`` s each (a whole multiple
+        of ``dt``, integrated in RK4 steps of ``dt``); N = ``horizon + coarse_steps`` stages.  The running
+        cost of a stage is weighted by its length over ``dt`` (the same integral of the errors over
+        time); the warm start shifts the last plan by ``dt`` (interpolated inside a coarse step).
     Q, R, P : array_like
         Diagonals of the stage (12), input-rate (n, one per thruster, 1/N^2) and terminal
         (12) weights.
@@ -182,7 +187,7 @@ class DockingMPC:
         the reference; "exact" differentiates the model twice (several ms per evaluation
         without compiled code).
     objective_extra : callable, optional
-        ``f(X, U, params_sym) -> SX`` added to the objective (Optimized FSE-MPC's
+        ``f(X, U, params, extra, stage_lengths_s) -> SX`` added to the objective (Optimized FSE-MPC's
         ``-alpha F``); ``extra_params`` is then the number of extra parameters it reads.
     objective_key : optional
         What defines ``objective_extra`` (numbers, arrays: :func:`auvdock.runtime.fingerprint.digest`):
@@ -224,6 +229,8 @@ class DockingMPC:
         *,
         horizon: int = 10,
         dt: float = 0.05,
+        coarse_steps: int = 0,
+        coarse_dt: float = 0.25,
         Q: np.ndarray | list[float],
         R: np.ndarray | list[float],
         P: np.ndarray | list[float],
@@ -249,8 +256,21 @@ class DockingMPC:
             raise ValueError(f"unknown prediction model {prediction!r}")
         self.vehicle = vehicle
         self.dock = dock
-        self.N = int(horizon)
         self.dt = float(dt)
+        n_fine, n_coarse = int(horizon), int(coarse_steps)
+        sub = round(float(coarse_dt) / self.dt) if n_coarse > 0 else 1
+        if n_coarse < 0 or (n_coarse > 0 and (sub < 1 or abs(sub * self.dt - float(coarse_dt)) > 1e-9)):
+            raise ValueError(f"coarse_dt {coarse_dt:g} s is not a whole multiple of dt {self.dt:g} s")
+        self.N = n_fine + n_coarse
+        #: The stages' lengths (N,), s: ``horizon`` of ``dt``, then ``coarse_steps`` of ``coarse_dt``.
+        self.stage_dt = np.array([self.dt] * n_fine + [sub * self.dt] * n_coarse)
+        #: RK4 steps of ``dt`` per stage (N,): 1 in the fine part.
+        self.stage_substeps = np.array([1] * n_fine + [sub] * n_coarse)
+        #: The stages' starts after now (N,), s (``k dt`` in the fine part, as a uniform grid has them).
+        self.offsets_s = np.concatenate(
+            [self.dt * np.arange(n_fine), n_fine * self.dt + sub * self.dt * np.arange(n_coarse)]
+        )
+        self.uniform = n_coarse == 0 or sub == 1
         self.prediction = prediction
         self.solver_name = solver
         self.Q = np.asarray(Q, dtype=float)
@@ -292,8 +312,9 @@ class DockingMPC:
             f = build()  # an extra objective nothing names: built for this controller alone
         else:  # the same functions for every run of this vehicle and problem (Vehicle.built)
             defining = (
-                self.N, self.dt, self.prediction, self.Q, self.R, self.P, self.n_extra, self._extra_hessian,
-                self.entry, objective_key, solver, int(max_iter), float(tol), hessian, qp,
+                self.N, self.dt, self.stage_substeps, self.prediction, self.Q, self.R, self.P,
+                self.n_extra, self._extra_hessian, self.entry, objective_key,
+                solver, int(max_iter), float(tol), hessian, qp,
             )  # fmt: skip
             f = vehicle.built("docking_mpc", defining, build)
         self._n_params, self._nw, self._ng, self.dims = f.n_params, f.nw, f.ng, f.dims
@@ -349,6 +370,12 @@ class DockingMPC:
         step = ca.Function("mpc_model_step", [xs, us, flow, acc, dist], [rk4(f_pred, xs, dt, 1, us)])
         # the offset-free observer's one-step prediction, evaluated every control step: compiled
         step_fn = compiled_function(step)[0]
+        # a coarse stage: the same RK4 step of dt, m times (the thrust and the water held over it)
+        steps = {1: step}
+        for m in sorted(set(int(v) for v in self.stage_substeps) - {1}):
+            steps[m] = ca.Function(
+                f"mpc_model_step_{m}", [xs, us, flow, acc, dist], [rk4(f_pred, xs, m * dt, m, us)]
+            )
 
         # stage-structured layout: w = [x~_0, u_0, x~_1, u_1, ..., x~_N] with the augmented state
         # x~_k = [x_k; v_k], v_k the input of the step before (v_0 = u_prev, fixed by bounds), so
@@ -376,18 +403,21 @@ class DockingMPC:
             )
 
         # cost (10) as weighted residuals: J = sum_i wts_i r_i^2 (Gauss-Newton Hessian 2 J_r^T W J_r)
+        # a stage's running cost weighs as long as it lasts (the fine stages' by 1: the paper's sum)
+        lasts = self.stage_dt / dt
         res, wts = [], []
         g = []
         for k in range(N):
             if k >= 1:
                 res.append(error(k))
-                wts.append(self.Q)
+                wts.append(self.Q * lasts[k - 1] if lasts[k - 1] != 1.0 else self.Q)
             res.append(U[:, k] - V[:, k])
             wts.append(self.R)
+            step_k = steps[int(self.stage_substeps[k])]
             if self.prediction == "full":
-                g.append(step(X[:, k], U[:, k] + u_off, water_v[:, k], water_a[:, k], dist) - X[:, k + 1])
+                g.append(step_k(X[:, k], U[:, k] + u_off, water_v[:, k], water_a[:, k], dist) - X[:, k + 1])
             else:
-                g.append(step(X[:, k], U[:, k] + u_off, flow, zero, dist) - X[:, k + 1])
+                g.append(step_k(X[:, k], U[:, k] + u_off, flow, zero, dist) - X[:, k + 1])
             g.append(U[:, k] - V[:, k + 1])
         res.append(error(N))
         wts.append(self.P)
@@ -404,13 +434,13 @@ class DockingMPC:
                         heading, active,
                     )
                 )  # fmt: skip
-                wts.append(w_entry)
+                wts.append(w_entry * lasts[k - 1] if lasts[k - 1] != 1.0 else w_entry)
         r = ca.vertcat(*res)
         W = ca.DM(np.concatenate(wts))
         J = ca.dot(W * r, r)
         J_extra = 0
         if objective_extra is not None:
-            J_extra = objective_extra(X, U + ca.repmat(u_off, 1, N), params, extra)
+            J_extra = objective_extra(X, U + ca.repmat(u_off, 1, N), params, extra, self.stage_dt)
         J = J + J_extra
 
         blocks = []
@@ -565,7 +595,11 @@ class DockingMPC:
         accel = water.accel_ned[0] if self.prediction == "full" else np.zeros(3)
         if self.offset_free:
             xm = self._observe(xm, np.asarray(u_prev, dtype=float), flow, accel, R)
-        _, dp, dv = self.dock.trajectory(t, self.dt, self.N)
+        if self.uniform:
+            _, dp, dv = self.dock.trajectory(t, self.dt, self.N)
+        else:  # at the grid's nodes
+            nodes = t + np.append(self.offsets_s, self.offsets_s[-1] + self.stage_dt[-1])
+            dp, dv = self.dock.position(nodes), self.dock.velocity(nodes)
         psi_d = self.dock.heading_rad
         psi_ref = psi_d + 2 * math.pi * round((x[YAW] - psi_d) / (2 * math.pi))
         # the dock's entry: its heading (within pi of the vehicle's), where the target stands off it
@@ -587,7 +621,12 @@ class DockingMPC:
             w0[self._iu] = u_prev_m
             w0[self._iv] = u_prev_m
         else:
-            w0 = shift_solution(self._w_prev, self._ix, self._iv, self._iu)
+            if self.uniform:
+                w0 = shift_solution(self._w_prev, self._ix, self._iv, self._iu)
+            else:
+                w0 = shift_on_grid(
+                    self._w_prev, self._ix, self._iv, self._iu, self.offsets_s, self.stage_dt, self.dt
+                )
             w0[self._ix[0]] = xm
             w0[self._iv[0]] = u_prev_m
         t0 = time.perf_counter()
@@ -622,12 +661,15 @@ class DockingMPC:
         if self._plan_u is not None:
             self._plan_age += 1
         k = self._plan_age
+        # the plan's stage at k control periods after it was made
+        stage = k if self.uniform else int(np.searchsorted(self.offsets_s, k * self.dt + 1e-9) - 1)
         if (
             self._plan_u is not None
             and self._plan_x is not None
-            and k <= min(self.fallback_steps, self.N - 1)
+            and k <= self.fallback_steps
+            and stage <= self.N - 1
         ):
-            thrust = np.clip(self._plan_u[k], self.u_min, self.u_max)
+            thrust = np.clip(self._plan_u[stage], self.u_min, self.u_max)
             plan_x, plan_u = self._plan_x, self._plan_u
         else:
             status = STATUS_FALLBACK_ZERO
@@ -647,6 +689,34 @@ class DockingMPC:
         R_all = np.asarray(self._rot_map(Xm[:, ATT].T)).reshape(3, -1, 3)  # [i, k, j] = R_k[i, j]
         X[:, LIN] += np.einsum("ikj,i->kj", R_all, flow_ned)
         return X
+
+
+def shift_on_grid(
+    w: np.ndarray,
+    ix: np.ndarray,
+    iv: np.ndarray,
+    iu: np.ndarray,
+    offsets_s: np.ndarray,
+    stage_dt: np.ndarray,
+    dt: float,
+) -> np.ndarray:
+    """A solution on a non-uniform grid (stages starting ``offsets_s`` (N,) after now, lasting
+    ``stage_dt`` (N,), s) moved ``dt`` later: each node's state interpolated linearly at its time plus
+    ``dt`` along the old plan (the last node held past its end), each stage's input the old plan's input
+    at that time (inputs are held over a stage), the previous inputs following.  On a uniform grid of
+    ``dt`` it is :func:`shift_solution`."""
+    out = w.copy()
+    nodes = np.append(offsets_s, offsets_s[-1] + stage_dt[-1])  # (N + 1,)
+    X = w[ix]  # (N + 1, nx)
+    later = nodes + dt
+    for i in range(X.shape[1]):
+        out[ix[:, i]] = np.interp(later, nodes, X[:, i])
+    U = w[iu]  # (N, nu)
+    stage = np.clip(np.searchsorted(nodes, offsets_s + dt + 1e-9) - 1, 0, len(offsets_s) - 1)
+    out[iu] = U[stage]
+    # each stage's previous input: the input of the stage before it (the first is set by the caller)
+    out[iv[1:]] = out[iu]
+    return out
 
 
 def shift_solution(w: np.ndarray, *index: np.ndarray) -> np.ndarray:

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal
 
-from pydantic import Field, field_validator
+from pydantic import Field, field_validator, model_validator
 
 from auvdock.schema.strict import NonNegFloat, PosFloat, Strict, Vec3Pos, Vec6Pos, Vec12NonNeg
 
@@ -41,6 +41,7 @@ SOLVER_NAMES = ("ipopt", "sqp", "rti")
 def solver_names() -> tuple[str, ...]:
     """``auto`` and every registered solver."""
     return ("auto", *SOLVER_NAMES)
+
 
 #: Diagonal stage and terminal weights of the 12-state error (paper; docs/parameter-sources.md section 4).
 DEFAULT_Q = [1.0, 1.0, 1.0, 100.0, 100.0, 100.0, 1.0, 1.0, 1.0, 100.0, 100.0, 100.0]
@@ -149,6 +150,23 @@ class EntrySpec(Strict):
     heading_weight: NonNegFloat = Field(default=200.0, description="penalty on the heading bound, per rad^2")
 
 
+class CoarseSpec(Strict):
+    """A controller's ``coarse`` section: the horizon's coarse tail, a non-uniform time grid (fine steps
+    first, coarse later) that sees seconds ahead in few stages (the QP's cost follows the stages, the
+    prediction's the time spanned: docs/controllers.md, "A horizon of seconds")."""
+
+    steps: Annotated[int, Field(ge=0, le=200)] = Field(
+        default=0,
+        description="steps of dt_s each after the horizon's horizon_steps steps of the control period "
+        "(0: a uniform grid, the paper's)",
+    )
+    dt_s: PosFloat = Field(
+        default=0.25,
+        description="each coarse step, s: a whole multiple of the control period (integrated in steps "
+        "of it, so that the prediction is as accurate as the fine part's)",
+    )
+
+
 class MPCSettings(Strict):
     """What every docking MPC has: horizon, period, weights, bounds and solver."""
 
@@ -162,12 +180,41 @@ class MPCSettings(Strict):
     disturbance_time_constant_s: PosFloat = Field(
         default=1.0, description="robust: time constant of the lumped-disturbance estimate, s"
     )
-    horizon_steps: Annotated[int, Field(ge=1, le=200)] = Field(default=10, description="N, steps")
+    horizon_steps: Annotated[int, Field(ge=1, le=200)] = Field(
+        default=10, description="N, steps of dt_s (then coarse.steps more of coarse.dt_s)"
+    )
     dt_s: PosFloat = Field(default=0.05, description="control period and MPC step, s")
+    coarse: CoarseSpec = Field(default_factory=CoarseSpec)
     weights: WeightsSpec = Field(default_factory=WeightsSpec)
     bounds: BoundsSpec = Field(default_factory=BoundsSpec)
     solver: SolverSpec = Field(default_factory=SolverSpec)
     entry: EntrySpec = Field(default_factory=EntrySpec)
+
+    @model_validator(mode="after")
+    def _coarse_multiple(self) -> MPCSettings:
+        if self.coarse.steps > 0:
+            ratio = self.coarse.dt_s / self.dt_s
+            if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
+                raise ValueError(
+                    f"coarse.dt_s: {self.coarse.dt_s:g} s is not a whole multiple of dt_s ({self.dt_s:g} s)"
+                )
+        return self
+
+    def horizon_text(self) -> str:
+        """The horizon in words: ``N = 10, dt = 0.05 s`` or, with a coarse tail,
+        ``N = 10 x 0.05 s + 12 x 0.25 s (3.5 s)``."""
+        if self.coarse.steps == 0:
+            return f"N = {self.horizon_steps}, dt = {self.dt_s:g} s"
+        total = sum(self.stage_lengths_s())
+        return (
+            f"N = {self.horizon_steps} x {self.dt_s:g} s + {self.coarse.steps} x {self.coarse.dt_s:g} s "
+            f"({total:.3g} s)"
+        )
+
+    def stage_lengths_s(self) -> list[float]:
+        """Each step of the prediction's time grid, s: ``horizon_steps`` of ``dt_s``, then ``coarse.steps``
+        of ``coarse.dt_s``."""
+        return [self.dt_s] * self.horizon_steps + [self.coarse.dt_s] * self.coarse.steps
 
     def entry_enabled(self, docks_on_contact: bool) -> bool:
         """Whether the MPC's cost holds the dock's entry corridor (``entry.enabled``; by default the

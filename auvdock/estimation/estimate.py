@@ -79,14 +79,14 @@ class Estimate:
     wave_accel_ned: np.ndarray | None = None
     wave_model: WaveModel | None = None
 
-    def water_ahead(self, current_ned: np.ndarray, dt: float, steps: int) -> WaterAhead:
-        """The water a controller's prediction meets over ``steps`` steps of ``dt`` s: its
-        ``current_ned`` (3,) estimate held, plus the wave-frequency velocity run forward on the wave
+    def water_ahead(self, current_ned: np.ndarray, offsets_s: np.ndarray) -> WaterAhead:
+        """The water a controller's prediction meets at its stages' starts ``offsets_s`` (N,) s from now:
+        its ``current_ned`` (3,) estimate held, plus the wave-frequency velocity run forward on the wave
         model where the stage estimates it (:meth:`WaterAhead.from_waves`); else the current held."""
         if self.wave_velocity_ned is None or self.wave_accel_ned is None or self.wave_model is None:
-            return WaterAhead.held(current_ned, steps)
+            return WaterAhead.held(current_ned, len(offsets_s))
         return WaterAhead.from_waves(
-            current_ned, self.wave_velocity_ned, self.wave_accel_ned, self.wave_model, dt, steps
+            current_ned, self.wave_velocity_ned, self.wave_accel_ned, self.wave_model, offsets_s
         )
 
     def without_flow(self) -> Estimate:

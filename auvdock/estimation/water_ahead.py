@@ -73,13 +73,13 @@ class WaterAhead:
         wave_velocity_ned: np.ndarray,
         wave_accel_ned: np.ndarray,
         model: WaveModel,
-        dt: float,
-        steps: int,
+        offsets_s: np.ndarray,
     ) -> WaterAhead:
         """The current ``current_ned`` (3,) held plus the wave oscillators' expected motion from
-        ``wave_velocity_ned`` and ``wave_accel_ned`` (3, each) now, at ``k dt`` (s) for k = 0..steps-1
-        (:meth:`~auvdock.estimation.wave_model.WaveModel.propagate`)."""
-        w, a = model.propagate(wave_velocity_ned, wave_accel_ned, dt * np.arange(steps))
+        ``wave_velocity_ned`` and ``wave_accel_ned`` (3, each) now, at the horizon's stages' starts
+        ``offsets_s`` (N,) s from now (``k dt`` on a uniform grid;
+        :meth:`~auvdock.estimation.wave_model.WaveModel.propagate`)."""
+        w, a = model.propagate(wave_velocity_ned, wave_accel_ned, np.asarray(offsets_s, dtype=float))
         return cls(np.asarray(current_ned, dtype=float).reshape(1, 3) + w, a)
 
     @classmethod
@@ -89,13 +89,13 @@ class WaterAhead:
         sea: WaveComponents,
         position_ned: np.ndarray,
         t: float,
-        dt: float,
-        steps: int,
+        offsets_s: np.ndarray,
     ) -> WaterAhead:
         """The current ``current_ned`` (3,) held plus the sea's orbital velocity and local
-        acceleration at ``position_ned`` (3,, m) at ``t + k dt`` (s), k = 0..steps-1."""
-        times = float(t) + dt * np.arange(steps)
-        p = np.broadcast_to(np.asarray(position_ned, dtype=float).reshape(1, 3), (steps, 3))
+        acceleration at ``position_ned`` (3,, m) at ``t`` plus the horizon's stages' starts ``offsets_s``
+        (N,) s (``k dt`` on a uniform grid)."""
+        times = float(t) + np.asarray(offsets_s, dtype=float)
+        p = np.broadcast_to(np.asarray(position_ned, dtype=float).reshape(1, 3), (times.size, 3))
         kin = sea.kinematics(p, times)
         return cls(
             np.asarray(current_ned, dtype=float).reshape(1, 3) + kin.velocity_ned_m_s,
