@@ -181,7 +181,8 @@ class VehicleSim:
     rate_hz : float
         Physics steps per simulated second (and the fastest telemetry rate), Hz.
     speed : float
-        Simulated seconds per wall-clock second.
+        Simulated seconds per second of the clock (read every physics step: a test may lower it in a
+        session, as a simulator falls behind its rate on a busy machine).
     gcs_sysid : int
         The only system whose RC_CHANNELS_OVERRIDE / MANUAL_CONTROL are obeyed (SYSID_MYGCS).
     joystick_gain : float
@@ -295,6 +296,7 @@ class VehicleSim:
         self._parser = self._new_parser()  # incoming UDP datagrams
 
         self._k = 0  # physics steps done; t = k dt
+        self._tick_at: float | None = None  # when (the clock's time, s) the loop's next step is due
         self._thrust = np.zeros(8)
         self._target_dock: PositionSource | None = None
         self._out = Outbox()
@@ -610,6 +612,7 @@ class VehicleSim:
         """Wait until ``when`` (the clock's time, s), handling messages as they arrive."""
         clock = self.clock
         conn = self._conn
+        self._tick_at = when
         while not self._stop_event.is_set():
             delay = when - clock.now()
             if delay <= 0:
@@ -715,8 +718,20 @@ class VehicleSim:
         except Exception:  # a message pymavlink cannot render
             fields = {}
         self._received.append((self.clock.time(), mtype, msg.get_srcSystem(), fields))
-        if not self._commands.handle(msg, self._k * self.dt):
+        # the commands act at the coming step; a TIMESYNC is answered with the vehicle's clock as it is read
+        # (ArduPilot's micros at the answer), not the next step's time
+        t = self._vehicle_now() if mtype == "TIMESYNC" else self._k * self.dt
+        if not self._commands.handle(msg, t):
             self._garbage += 1
+
+    def _vehicle_now(self) -> float:
+        """The vehicle's clock now (s): the telemetry just sent is stamped with the last step's time ``k dt``
+        a step before the next is due (:meth:`_StandinPlant.advance`), and the clock runs on from there."""
+        t = self._k * self.dt
+        if self._tick_at is None:
+            return t
+        period = self.dt / self.speed  # of the clock's time
+        return t + min(self.dt, max(0.0, (self.clock.now() - (self._tick_at - period)) * self.speed))
 
     # --- outgoing: which state each message carries (telemetry_out encodes it) ----------------
     @property
@@ -813,7 +828,6 @@ class _StandinPlant:
     def __init__(self, sim: VehicleSim) -> None:
         self.sim = sim
         self._next_t = 0.0
-        self._period = sim.dt / sim.speed
         self.columns = self.columns_of(sim)
 
     @staticmethod
@@ -856,7 +870,7 @@ class _StandinPlant:
         with sim._lock:
             sim._physics_step()
             sim._send_telemetry()
-        self._next_t += self._period
+        self._next_t += sim.dt / sim.speed  # (read each step: a rehearsal's simulator may fall behind)
         sim._wait_until(self._next_t)
         if sim.clock.now() - self._next_t > MAX_LAG_S:
             self._next_t = sim.clock.now()
