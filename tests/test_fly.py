@@ -144,6 +144,41 @@ def test_a_vehicle_handed_over_armed_is_flown_and_left_armed_saying_so(loop, tmp
     assert out["docked"] and out["handed_over_armed"] and not out["armed_by_us"]
 
 
+def test_a_rehearsal_whose_simulator_falls_behind_is_flown_on_the_vehicles_clock(loop, tmp_path) -> None:
+    """From 6 s the stand-in runs at 0.8 of its rate (as ArduSub SITL's lockstep on a busy machine): fly
+    paces its periods and dates its readings on the vehicle's clock, so each step is at the vehicle time its
+    mission time says (the newest ATTITUDE 0-40 ms before it, as at the rate kept), and it docks with the
+    verdict right on the truth.  On fly's own clock the vehicle fell 0.2 s behind every second: before, the
+    steps ran ahead of the vehicle, 2.9 s by the dock, and the readings were dated on a clock offset
+    averaged over half a minute (this mission, on position telemetry, still docked)."""
+    from auvdock.standins.truth_check import check_flight
+
+    truth = tmp_path / "truth.h5"
+    sim, port = loop.vehicle(truth_out=truth, hold_start=True)
+    clock = loop.clock
+
+    def fall_behind() -> None:
+        clock.sleep_until(6.0)
+        sim.speed = 0.8
+
+    clock.start_thread(fall_behind, "fall-behind")
+    res = loop.fly(port, tmp_path, "--arm", "--timeout", "40")
+    sim.stop()
+    assert res.exit_code == 0, res.output + res.stderr
+    flight = next(tmp_path.glob("tank_positioned_*.h5"))
+    c = check_flight(flight, truth)
+    assert c.flight_docked and c.verdict_right
+    r = read_run(flight)
+    behind = r.extras["vehicle_time_s"] - r.time_s  # the newest ATTITUDE's time less the step's mission time
+    # within a telemetry period (40 ms) but as the slowing starts: until the next TIMESYNC answer (0.5 s)
+    # shows it the steps run ahead at fly's rate (0.1 s); then on the vehicle's clock to the end
+    assert np.ptp(behind) <= 0.04 + 0.5 * 0.2 + 0.01, np.ptp(behind)
+    assert np.ptp(behind[r.time_s > 7.0]) <= 0.04 + 0.01
+    said = re.search(r"the vehicle's clock ran at (0\.\d\d) of fly's over the flight", res.output)
+    assert said is not None, res.output
+    assert 0.8 < float(said.group(1)) < 0.95
+
+
 @pytest.mark.parametrize("noise", [False, True], ids=["exact-telemetry", "noisy-telemetry"])
 def test_a_rehearsal_writes_its_truth_and_the_flight_is_scored_on_it(loop, tmp_path, noise) -> None:
     """vehicle-sim with its truth written (--truth-out); fly --arm docks by its telemetry.  The truth

@@ -116,7 +116,7 @@ def _readings(fixes: list[_Fix]) -> list[Reading]:
 
 class _FollowingDock:
     """The true dock on the vehicle's clock: ``position(t) = truth.position(t + clocked.offset_s)``, the
-    offset that of the mission's dock on the same clock (set as the loop starts, refined by TIMESYNC)."""
+    offset that of the mission's dock on the same clock (set as the loop starts)."""
 
     def __init__(self, truth: Any, clocked: ClockedDock) -> None:
         self.truth = truth

@@ -3,8 +3,10 @@
 :class:`MavlinkPlant` is the :class:`~auvdock.loop.stages.Plant` of ``fly`` (and so of ``replay``, which
 hands the same session a recorded link): every instant it writes the camera's fixes taken so far to the
 tlog, drains the messages received since the last instant (:class:`auvdock.fly.vehicle_io.VehicleIO`;
-the tlog marks the moment), at the first instant sets the dock's clock, re-requests the telemetry rates
-now and then, and reports the vehicle's own state estimate (recorded, and judged by the docking rule)
+the tlog marks the moment), at the first instant sets the mission's clock on the vehicle's and then
+follows it (:class:`auvdock.fly.dock_clock.DockClock`: the periods are paced on the vehicle's clock, which
+in a rehearsal slower than its rate falls behind the session's), re-requests the telemetry rates now and
+then, and reports the vehicle's own state estimate (recorded, and judged by the docking rule)
 with the flight's columns (telemetry ages, armed, the vehicle's clock, the link, the loop's lateness,
 the mission's flow model at the vehicle).  Whether the step flies is the supervisor's
 (:class:`auvdock.fly.supervisor.FlySupervisor`), what the sensors read the readings stage's
@@ -15,6 +17,7 @@ it is not.
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -102,6 +105,7 @@ class MavlinkPlant:
         self._t_start = 0.0
         self._armed = False
         self._clock_set = False
+        self._span: tuple[float, float, float] | None = None  # (session s, session s, mission s) of the loop
 
     def start(self) -> None:
         """The loop's t = 0 is now on the session's clock (and, at the first observation, on the vehicle's:
@@ -112,16 +116,23 @@ class MavlinkPlant:
     def observe(self, t: float) -> Observation:
         """Drain the telemetry and report the vehicle at mission time ``t`` (s)."""
         io = self.io
-        # how late this step starts on the session's clock (the machine not keeping pace: a slow step
-        # before it, a busy CPU), s; 0 in simulated time
-        late = max(0.0, io.clock.now() - (self._t_start + t))
         self._record_camera_fixes()
         io.take("auvd_step", int(round(t / self.dt)))
+        clock = self.dock_clock
         if not self._clock_set:
-            self.dock_clock.start(t, io)
-            if self.camera_sensor is not None and self.dock_clock.zero_s is not None:
-                self.camera_sensor.start_mission_clock(self.dock_clock.zero_s)
+            clock.start(t, io)
             self._clock_set = True
+        clock.follow(io.figures().offset_now_s(io.now_us * 1e-6))  # mission t = 0 as the vehicle runs
+        if self.camera_sensor is not None and clock.zero_s is not None:
+            self.camera_sensor.start_mission_clock(clock.zero_s)
+        # how late this step is on the mission's clock (the vehicle's; the machine not keeping pace: a slow
+        # step before it, a busy CPU), s; 0 in simulated time
+        if clock.zero_s is not None:
+            now_s = io.now_us * 1e-6
+            self._span = (now_s if self._span is None else self._span[0], now_s, t)
+            late = max(0.0, now_s - (clock.zero_s + t))
+        else:
+            late = max(0.0, io.clock.now() - (self._t_start + t))
         self._refresh_rates()
         x = io.telemetry.state()
         link = io.figures()
@@ -149,9 +160,24 @@ class MavlinkPlant:
         return Applied(np.asarray(sent, dtype=float), applied)
 
     def advance(self, t: float, t_next: float) -> bool:
-        """Wait on the session's clock until ``t_next`` (s) after the loop's start."""
-        self.io.clock.sleep_until(self._t_start + t_next)
+        """Wait until mission time ``t_next`` (s): on the vehicle's clock as last measured
+        (:class:`auvdock.fly.dock_clock.DockClock`), else ``t_next`` after the loop's start on the
+        session's."""
+        clock = self.io.clock
+        zero = self.dock_clock.zero_s
+        if zero is None:
+            clock.sleep_until(self._t_start + t_next)
+        else:
+            clock.sleep_until(clock.now() + (zero + t_next - clock.time()))
         return True
+
+    def vehicle_clock_rate(self) -> float:
+        """The vehicle's clock's rate against the session's over the loop so far (mission s per session s;
+        NaN over less than a second): 1 in the field and in a rehearsal that keeps its rate."""
+        if self._span is None or self._span[1] - self._span[0] < 1.0:
+            return math.nan
+        first, last, t = self._span
+        return t / (last - first)
 
     def _record_camera_fixes(self) -> None:
         """The camera's fixes of this step, taken now and written to the tlog before the step's messages are

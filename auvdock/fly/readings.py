@@ -117,8 +117,7 @@ class FlyReadings:
             delay.command_delay_s = link.one_way_s
             delay.hold_back_s = link.hold_back_s
             delay.jitter_s, delay.loss = link.jitter_s, link.loss
-            self.dock_clock.follow(link.offset_s)
-            offset = link.offset_s
+            offset = self.dock_clock.reading_offset_s(t, io.now_us * 1e-6)  # readings on the mission's clock
             state_t = io.telemetry.sample_time("LOCAL_POSITION_NED", t, io.now_us, offset)
         fixes: list[Reading] = []
         if self.camera_sensor is not None:  # the dock camera's fixes: readings of the navigation filter

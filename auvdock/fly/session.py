@@ -128,6 +128,9 @@ ARM_RETRY_S = 2.0
 MODE_TIMEOUT_S = 3.0
 #: Waits show their progress this often, s.
 PROGRESS_EVERY_S = 5.0
+#: The vehicle's clock's rate against fly's is said at the ending when it was further than this from 1
+#: (a rehearsal whose simulator fell behind its rate; the field's clocks differ by parts per million).
+VEHICLE_RATE_SAID = 0.01
 #: While a stream has not come, its rate is requested again this often, s (a request lost on the link).
 RATE_RETRY_S = 2.0
 #: Streams requested besides TELEMETRY_MESSAGES: name -> rate (None: the control rate): the
@@ -821,6 +824,12 @@ class FlySession:
         refreshes = 0 if self._plant is None else self._plant.rate_refreshes
         if refreshes:
             self.log.add(f"telemetry rates re-requested {refreshes} time(s)")
+        rate = math.nan if self._plant is None else self._plant.vehicle_clock_rate()
+        if abs(rate - 1.0) > VEHICLE_RATE_SAID:  # a rehearsal's simulator that fell behind (NaN: False)
+            self.log.add(
+                f"the vehicle's clock ran at {rate:.2f} of fly's over the flight: the loop paced on it "
+                f"(its clock's offset followed {self.io.health.drift_restarts} time(s))"
+            )
         rec = self._rec
         if ending is None:
             if rec is not None and rec.writer is not None:
