@@ -13,9 +13,10 @@ tcp:127.0.0.1:5762 --arm``; then sitl-physics is stopped with SIGTERM (it writes
 truth-check`` scores the flight.
 Each run starts SITL afresh (``-w``: parameters wiped), so runs differ by SITL's own sensor noise and timing.
 With ``--camera`` sitl-physics streams the dock's markers as RTP/H.264 to UDP 5600 (for
-``missions/sitl_tank_camera.yaml``).  Prints per run how fly ended and the truth-check verdict, then how many
-verdicts were wrong: docked declared with the truth beyond the tolerance at the instant judged (issue 29's
-figure 2), or a run ended undocked with the truth within it.
+``missions/sitl_tank_camera.yaml``).  Prints per run how fly ended, the truth-check verdict and fly's lines on
+the camera's rate, the loop's pace and the vehicle's clock; then how many runs docked by the truth (declared
+docked, the verdict right) and how many verdicts were wrong: docked declared with the truth beyond the
+tolerance at the instant judged (issue 29's figure 2), or a run ended undocked with the truth within it.
 
 ``--rate R`` runs the whole rehearsal at R x real time, for a machine that cannot keep real time (SITL,
 the physics, the camera's rendering and fly on 2 cores ran at 0.33-0.52 x on 2026-12-07): SITL with
@@ -117,7 +118,7 @@ def main() -> int:
     rate = ["--clock-rate", f"{args.rate:g}"] if args.rate != 1.0 else []
     args.out.mkdir(parents=True, exist_ok=True)
     print(f"{args.mission}, {args.controller}, {args.runs} runs against {args.ardusub}; files in {args.out}")
-    false_docks = missed = flown = 0
+    false_docks = missed = flown = truly = 0
     for i in range(args.first, args.first + args.runs):
         d = (args.out / f"{Path(args.mission).stem}_{args.controller}_{i}").resolve()
         d.mkdir(parents=True, exist_ok=True)
@@ -177,11 +178,16 @@ def main() -> int:
         docked = ended.startswith("docked")
         false_docks += int(docked and not right)
         missed += int(not docked and not right)
+        truly += int(docked and right)
         print(f"run {i}: fly exit {res.returncode}: {ended}", flush=True)
         for line in lines:
             print(f"    {line}", flush=True)
+        for line in (res.stdout + res.stderr).splitlines():  # the camera, the pace, the vehicle's clock
+            if line.startswith(("camera:", "pace:")) or "the vehicle's clock ran at" in line:
+                print(f"    fly: {line.strip()}", flush=True)
     print(
-        f"{flown} runs flown: docked declared with the truth beyond the tolerance in {false_docks}; "
+        f"{flown} runs flown: docked by the truth (declared docked, the verdict right) in {truly}; "
+        f"docked declared with the truth beyond the tolerance in {false_docks}; "
         f"ended undocked with the truth within it in {missed}"
     )
     return 0
