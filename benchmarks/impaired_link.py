@@ -45,11 +45,10 @@ def main() -> None:
     args = ap.parse_args()
     warnings.simplefilter("ignore")
     import numpy as np
-    import pytest
     from typer.testing import CliRunner
 
-    import auvdock.cli.fly as cli_fly
     from auvdock.cli import app
+    from auvdock.cli.app import Runtime
     from auvdock.config.catalog import resolve
     from auvdock.config.mission import load_mission
     from auvdock.controllers.registry import CONTROLLERS, split_controller
@@ -77,8 +76,6 @@ def main() -> None:
             d = out / f"{controller}_{seed}"
             d.mkdir(parents=True)
             clock = SimClock()
-            mp = pytest.MonkeyPatch()
-            mp.setattr(cli_fly, "clock", clock)
             port = _free_port()
             relay = LinkRelay(port, imp, imp, seed=seed, clock=clock).start()
             truth = d / "truth.h5"
@@ -102,12 +99,13 @@ def main() -> None:
                     str(d),
                     "--arm",
                 ]
-                res = CliRunner().invoke(app, [*fly, "--timeout", f"{args.timeout:g}", "-c", controller])
+                res = CliRunner().invoke(
+                    app, [*fly, "--timeout", f"{args.timeout:g}", "-c", controller], obj=Runtime(clock)
+                )
             finally:
                 sim.stop()
                 relay.stop()
                 clock.close()
-                mp.undo()
             h5 = next(d.glob("*_fly_*.h5"), None)
             if h5 is None:
                 print(f"{controller:10s} {seed:5d}  no results: {res.output.strip()[-80:]}")

@@ -73,11 +73,10 @@ def main() -> None:
     args = ap.parse_args()
     warnings.simplefilter("ignore")
     import h5py
-    import pytest
     from typer.testing import CliRunner
 
-    import auvdock.cli.fly as cli_fly
     from auvdock.cli import app
+    from auvdock.cli.app import Runtime
     from auvdock.config.catalog import resolve
     from auvdock.config.mission import load_mission
     from auvdock.runtime.clock import SimClock
@@ -99,8 +98,6 @@ def main() -> None:
         m = load_mission(mission)
         camera_note = " (camera.source: synthetic, rendered from vehicle-sim's truth; else as shipped)"
     clock = SimClock()
-    mp = pytest.MonkeyPatch()
-    mp.setattr(cli_fly, "clock", clock)
     import socket
 
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
@@ -129,7 +126,7 @@ def main() -> None:
         for i in range(args.flights):
             d = out / f"flight{i:02d}"
             fly = ["fly", str(mission), "--port", f"udpin:127.0.0.1:{port}", "--out", str(d), "--arm"]
-            res = runner.invoke(app, [*fly, "--timeout", "40", "-c", args.controller])
+            res = runner.invoke(app, [*fly, "--timeout", "40", "-c", args.controller], obj=Runtime(clock))
             h5 = next(d.glob("*.h5"), None)
             complete = h5 is not None and h5.with_suffix(".tlog").is_file()
             if h5 is not None:
@@ -143,7 +140,6 @@ def main() -> None:
     finally:
         sim.stop()
         clock.close()
-        mp.undo()
     print(f"truth: {truth}")
     wrong = docked = 0
     for i, h5 in enumerate(flights):
