@@ -515,10 +515,15 @@ class Mission(Strict):
         description="the docking controller: type (naive, kinematic, oracle, sequential, "
         "optimized, ce) and its settings; fields of other types are errors",
     )
+    # One name, kept for two sources (issue 38): "truth" is the state the controller is handed without an
+    # estimator of auvdock's own -- in sim the true state (the paper's Assumption 1), on a vehicle the
+    # autopilot's own estimate (ArduSub's EKF: ATTITUDE, LOCAL_POSITION_NED), the nearest a vehicle has;
+    # fly says which in its log.  Renaming it would break every mission written since the paper's.
     estimation: Literal["truth", "filter"] = Field(
         default="truth",
-        description="what every controller takes its state from: truth (the paper's Assumption 1) "
-        "or filter (the navigation filter on the sensor suite: auvdock.estimation.stage)",
+        description="what every controller takes its state from: truth (the paper's Assumption 1; on a "
+        "vehicle the autopilot's own estimate) or filter (the navigation filter on the sensor suite: "
+        "auvdock.estimation.stage)",
     )
     navigation: NavigationSettings = Field(default_factory=NavigationSettings)
     guidance: GuidanceSettings = Field(
