@@ -21,7 +21,7 @@
   In the field both run with the wall clock; a rehearsal's simulator falls behind its rate when the
   machine cannot keep up (ArduSub SITL's lockstep on a busy 2-core machine lost up to 0.9 s against
   fly's clock in a flight), and a flight paces and dates on the vehicle's clock
-  (:class:`auvdock.fly.dock_clock.DockClock`), so the offset must follow it.
+  (:class:`auvdock.fly.mission_clock.MissionClock`), so the offset must follow it.
 * **Loss**: MAVLink's sequence number (one byte per sending component, unwrapped) counts every message
   the vehicle sent: of the last :data:`LOSS_WINDOW` received, the distinct numbers against the span they
   cover (a late or duplicated message is not a lost one).

@@ -4,9 +4,9 @@
 hands the same session a recorded link): every instant it writes the camera's fixes taken so far to the
 tlog, drains the messages received since the last instant (:class:`auvdock.fly.vehicle_io.VehicleIO`;
 the tlog marks the moment), at the first instant sets the mission's clock on the vehicle's and then
-follows it (:class:`auvdock.fly.dock_clock.DockClock`: the periods are paced on the vehicle's clock, which
-in a rehearsal slower than its rate falls behind the session's), re-requests the telemetry rates now and
-then, and reports the vehicle's own state estimate (recorded, and judged by the docking rule)
+follows it (:class:`auvdock.fly.mission_clock.MissionClock`: the periods are paced on the vehicle's
+clock, which in a rehearsal slower than its rate falls behind the session's), re-requests the telemetry
+rates now and then, and reports the vehicle's own state estimate (recorded, and judged by the docking rule)
 with the flight's columns (telemetry ages, armed, the vehicle's clock, the link, the loop's lateness,
 the mission's flow model at the vehicle).  Whether the step flies is the supervisor's
 (:class:`auvdock.fly.supervisor.FlySupervisor`), what the sensors read the readings stage's
@@ -31,7 +31,7 @@ from auvdock.vehicle.state import POS
 
 if TYPE_CHECKING:
     from auvdock.fly.camera_sensor import CameraSensor, RecordedCamera
-    from auvdock.fly.dock_clock import DockClock
+    from auvdock.fly.mission_clock import MissionClock
     from auvdock.fly.vehicle_io import VehicleIO
     from auvdock.vehicle import Vehicle
     from auvdock.world.flow import FlowField
@@ -61,7 +61,7 @@ class MavlinkPlant:
         The model (its thruster curve: the thrust the channels push).
     flow : FlowField
         The mission's flow model (recorded as ``flow_model_ned_m_s``: the truth is unknown on a vehicle).
-    dock_clock : DockClock
+    mission_clock : MissionClock
         The mission's dock, set on the vehicle's clock at the first instant.
     streams : dict
         The telemetry streams requested (name -> Hz), re-requested every ``rates_refresh_s``.
@@ -83,7 +83,7 @@ class MavlinkPlant:
         io: VehicleIO,
         vehicle: Vehicle,
         flow: FlowField,
-        dock_clock: DockClock,
+        mission_clock: MissionClock,
         streams: dict[str, float],
         rates_refresh_s: float,
         dt: float,
@@ -94,7 +94,7 @@ class MavlinkPlant:
         self.io = io
         self.vehicle = vehicle
         self.flow = flow
-        self.dock_clock = dock_clock
+        self.mission_clock = mission_clock
         self.streams = dict(streams)
         self.rates_refresh_s = float(rates_refresh_s)
         self.arm = bool(arm)
@@ -118,7 +118,7 @@ class MavlinkPlant:
         io = self.io
         self._record_camera_fixes()
         io.take("auvd_step", int(round(t / self.dt)))
-        clock = self.dock_clock
+        clock = self.mission_clock
         if not self._clock_set:
             clock.start(t, io)
             self._clock_set = True
@@ -161,10 +161,10 @@ class MavlinkPlant:
 
     def advance(self, t: float, t_next: float) -> bool:
         """Wait until mission time ``t_next`` (s): on the vehicle's clock as last measured
-        (:class:`auvdock.fly.dock_clock.DockClock`), else ``t_next`` after the loop's start on the
+        (:class:`auvdock.fly.mission_clock.MissionClock`), else ``t_next`` after the loop's start on the
         session's."""
         clock = self.io.clock
-        zero = self.dock_clock.zero_s
+        zero = self.mission_clock.zero_s
         if zero is None:
             clock.sleep_until(self._t_start + t_next)
         else:

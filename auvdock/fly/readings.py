@@ -33,9 +33,9 @@ if TYPE_CHECKING:
     from auvdock.estimation.delay import DelayCompensation
     from auvdock.fly.camera import CameraTracking
     from auvdock.fly.camera_sensor import CameraSensor, RecordedCamera
-    from auvdock.fly.dock_clock import DockClock
     from auvdock.fly.dock_source import LandingTargetSource
     from auvdock.fly.dock_telemetry import DockTelemetryIn
+    from auvdock.fly.mission_clock import MissionClock
     from auvdock.fly.telemetry import MissionFrame
     from auvdock.fly.vehicle_io import VehicleIO
     from auvdock.loop.stages import Observation
@@ -52,7 +52,7 @@ class FlyReadings:
         The vehicle's link, drained by the plant.
     mission : Mission
         ``fly.stale_abort_s``, ``dock.source``.
-    dock_clock : DockClock
+    mission_clock : MissionClock
         The mission's dock on the vehicle's clock.
     frame : MissionFrame
         The map from the autopilot's frame to the mission's.
@@ -67,7 +67,7 @@ class FlyReadings:
         self,
         io: VehicleIO,
         mission: Mission,
-        dock_clock: DockClock,
+        mission_clock: MissionClock,
         frame: MissionFrame,
         *,
         delay: DelayCompensation | None = None,
@@ -78,7 +78,7 @@ class FlyReadings:
     ) -> None:
         self.io = io
         self.mission = mission
-        self.dock_clock = dock_clock
+        self.mission_clock = mission_clock
         self.frame = frame
         self.delay = delay
         self.camera = camera
@@ -117,7 +117,8 @@ class FlyReadings:
             delay.command_delay_s = link.one_way_s
             delay.hold_back_s = link.hold_back_s
             delay.jitter_s, delay.loss = link.jitter_s, link.loss
-            offset = self.dock_clock.reading_offset_s(t, io.now_us * 1e-6)  # readings on the mission's clock
+            # readings on the mission's clock
+            offset = self.mission_clock.reading_offset_s(t, io.now_us * 1e-6)
             state_t = io.telemetry.sample_time("LOCAL_POSITION_NED", t, io.now_us, offset)
         fixes: list[Reading] = []
         if self.camera_sensor is not None:  # the dock camera's fixes: readings of the navigation filter
@@ -149,4 +150,4 @@ class FlyReadings:
                 f"the dock's telemetry lost: no ODOMETRY from system {tel.system} for {age:.1f} s "
                 "(fly.stale_abort_s)",
             )
-        return tel.readings(self.dock_clock.offset_s)
+        return tel.readings(self.mission_clock.offset_s)

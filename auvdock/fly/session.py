@@ -79,11 +79,11 @@ from auvdock.estimation.delay import DelayCompensation
 from auvdock.fly.camera import CameraOpenError, CameraTracking
 from auvdock.fly.camera_sensor import SYNTHETIC_NEEDS, CameraSensor, RecordedCamera
 from auvdock.fly.conformance import PARAMETER_GROUPS, check_parameters, describe, parameter_names
-from auvdock.fly.dock_clock import DockClock
 from auvdock.fly.dock_source import LandingTargetSource
 from auvdock.fly.dock_telemetry import DockTelemetryIn
 from auvdock.fly.events import EventLog
 from auvdock.fly.link import LinkError, MavlinkLink
+from auvdock.fly.mission_clock import MissionClock
 from auvdock.fly.plant import MavlinkPlant
 from auvdock.fly.readings import FlyReadings
 from auvdock.fly.record import FlyRecorder
@@ -353,7 +353,7 @@ class FlySession:
         self.telemetry = TelemetrySensors(mission.sensors, mission.estimation)
         # the mission's dock motion on the vehicle's clock (its offset set as the control loop starts)
         self._model_dock = ClockedDock(mission.dock.build())
-        self.dock_clock = DockClock(self._model_dock, self.log)
+        self.mission_clock = MissionClock(self._model_dock, self.log)
         self.dock: ClockedDock | TrackedDock = self._model_dock
         self._landing: LandingTargetSource | None = None
         if mission.dock.source == "mavlink":
@@ -705,7 +705,7 @@ class FlySession:
             self.io,
             self.vehicle,
             self.flow,
-            self.dock_clock,
+            self.mission_clock,
             self._streams(),
             m.fly.rates_refresh_s,
             self.dt,
@@ -715,7 +715,7 @@ class FlySession:
         self._readings = FlyReadings(
             self.io,
             m,
-            self.dock_clock,
+            self.mission_clock,
             self._frame,
             delay=self.autopilot.delay,
             camera=self.camera,

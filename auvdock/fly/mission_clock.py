@@ -1,7 +1,7 @@
 """The mission's clock in a flight: the vehicle's clock, less its value at the mission's t = 0.
 
 The dock moves on mission time; a flight's readings are stamped on the vehicle's clock (ArduSub's
-``time_boot_ms``).  :class:`DockClock` sets the mission's ``t = 0`` on the vehicle's clock at the loop's
+``time_boot_ms``).  :class:`MissionClock` sets the mission's ``t = 0`` on the vehicle's clock at the loop's
 first period (``dock.offset_s``, kept for the flight), so that readings, the dock and the verdict's
 instant are on one clock, and follows where that instant is on the session's clock (the camera's frames
 and the loop's pacing are on it) as the link measures the vehicle's clock
@@ -20,10 +20,10 @@ if TYPE_CHECKING:
     from auvdock.fly.vehicle_io import VehicleIO
     from auvdock.world.dock import ClockedDock
 
-__all__ = ["DockClock"]
+__all__ = ["MissionClock"]
 
 
-class DockClock:
+class MissionClock:
     """The mission's clock: the vehicle's (``dock.offset_s``: the vehicle's time at mission ``t = 0``, s).
 
     Attributes
