@@ -7,13 +7,13 @@ lapse and the 3 s failsafe are checked exactly and the tests never wait for the 
 
 from __future__ import annotations
 
-import socket
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
+from helpers.loopback import free_port
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
@@ -43,12 +43,6 @@ def clock() -> Iterator[SimClock]:
     """The test's simulated clock (the test's thread is its first participant)."""
     with SimClock() as c:
         yield c
-
-
-def free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind((HOST, 0))
-        return int(s.getsockname()[1])
 
 
 def gcs(device: str, clock: SimClock, sysid: int = 255) -> Any:

@@ -14,6 +14,7 @@ seconds: exact, whatever the machine's load.
 
 from __future__ import annotations
 
+import os
 import socket
 from pathlib import Path
 from typing import Any
@@ -35,10 +36,28 @@ NEUTRAL, RELEASE = (1500,) * 6, (0,) * 6
 ARM_DISARM = 400
 
 
+#: Ports handed out by :func:`free_port`: below the kernel's ephemeral range (32768-60999 on Linux), so that
+#: no socket bound to port 0 meanwhile (a vehicle simulator's ``udpout``, another worker's) is given the
+#: same number between the test picking it and fly binding it; a block per pytest-xdist worker.
+_PORT_BLOCK = 3000
+_next_port = [0]
+
+
 def free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind((HOST, 0))
-        return int(s.getsockname()[1])
+    """A UDP port on 127.0.0.1 that no other test of this session will be handed (see ``_PORT_BLOCK``)."""
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "")
+    index = int(worker[2:]) + 1 if worker.startswith("gw") and worker[2:].isdigit() else 0
+    base = 20000 + (index % 4) * _PORT_BLOCK
+    for _ in range(_PORT_BLOCK):
+        port = base + _next_port[0] % _PORT_BLOCK
+        _next_port[0] += 1
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+            try:
+                s.bind((HOST, port))
+            except OSError:
+                continue
+        return port
+    raise RuntimeError(f"no free UDP port in {base}-{base + _PORT_BLOCK - 1}")
 
 
 def free_udp_pair() -> int:
