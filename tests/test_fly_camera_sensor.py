@@ -16,12 +16,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers.loopback import ROOT, Loopback, write_mission
+from helpers.loopback import ROOT, Loopback, free_port, write_mission
 
 from auvdock.config.mission import MissionError, load_mission
+from auvdock.estimation.dock_knowledge import TelemetryDock
 from auvdock.estimation.estimate import Estimate
+from auvdock.fly.link import MavlinkLink
 from auvdock.fly.replay import replay
-from auvdock.fly.session import check_flyable
+from auvdock.fly.session import FlySession, check_flyable
 from auvdock.loop.simulation import run_simulation
 from auvdock.loop.verdict import BOUND_95_3D, CaptureVerdict, MarginVerdict
 from auvdock.results.store import read_run
@@ -188,6 +190,40 @@ def test_capture_verdict_needs_the_nose_inside_by_the_95_percent_radius() -> Non
     assert not v.judge(_estimate(m, need + 0.005, 0.05)).docked  # too uncertain
     said = v.judge(_estimate(m, need + r95 + 0.005, std)).describe()
     assert said.startswith("on the navigation filter's estimate: captured with a 95 % margin of 0.028 m")
+
+
+def test_capture_is_judged_against_the_dock_the_estimate_is_relative_to() -> None:
+    """The estimate places the dock 6 mm further in than the chart plus its anchor offset does (the
+    dock's motion forecast from its telemetry moves it so): the nose is 4 mm past what the margin needs
+    against the chart, 2 mm short of it against the estimate's dock, and the verdict is the second."""
+    m = load_mission(TANK_0P6)
+    need = m.build_contact(m.build_dock())[2].nose_inside_depth_m
+    std = 0.002
+    est = _estimate(m, need + BOUND_95_3D * std + 0.004, std)
+    v = _capture_verdict(m)
+    assert v.judge(est).docked  # no dock of its own: the chart moved by the offset
+    est.dock_position_ned = np.asarray(m.dock.position_ned_m, dtype=float) + np.array([0.006, 0.0, 0.0])
+    judged = v.judge(est)
+    assert not judged.docked and judged.distance_m == pytest.approx(
+        float(np.linalg.norm(est.state[0:3] - est.dock_position_ned))
+    )
+
+
+def test_fly_judges_on_the_dock_its_estimate_knows(tmp_path) -> None:
+    """basin_regular with the dock's telemetry: the deployable controllers' estimate is relative to the
+    dock forecast from that telemetry, and fly's verdict judges against that dock (the velocity and
+    heading of the capture rule), not against the chart's motion (Oracle: the chart is what it knows)."""
+    m = load_mission(BASIN)
+    for controller, told in (("sequential", False), ("oracle", True)):
+        link = MavlinkLink(f"udpin:127.0.0.1:{free_port()}")
+        try:
+            session = FlySession(m, link, arm=False, out=tmp_path / f"{controller}.h5", controller=controller)
+            verdict = session._verdict()
+        finally:
+            link.close()
+        assert isinstance(verdict, CaptureVerdict)
+        assert verdict.margin.dock is session.autopilot.dock
+        assert isinstance(session.autopilot.dock, TelemetryDock) is not told
 
 
 # -- the dock's telemetry over MAVLink ----------------------------------------------------------------

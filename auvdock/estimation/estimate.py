@@ -47,6 +47,11 @@ class Estimate:
         anchor minus the charted one.  None: the mission's dock as it is (Assumption 2).
     relative_cov : ndarray (3, 3) or None
         Covariance of the vehicle's position relative to the dock, m^2 (the navigation filter's).
+    dock_position_ned : ndarray (3,) or None
+        Where the stage places the docking point at ``t``, NED m: the point ``state``'s position and
+        ``relative_cov`` are relative to (the navigation filter's anchor moved as the dock it knows moves:
+        the chart's motion, or the motion forecast from the dock's telemetry).  None: the mission's dock
+        at ``t`` plus ``dock_offset_ned``.
     dock_fix_t : float or None
         Sample time (s) of the newest camera fix of the dock the stage has used; None before the
         first (or without a dock camera).
@@ -73,6 +78,7 @@ class Estimate:
     current_ned: np.ndarray | None = None
     dock_offset_ned: np.ndarray | None = None
     relative_cov: np.ndarray | None = None
+    dock_position_ned: np.ndarray | None = None
     dock_fix_t: float | None = None
     current_uncertainty: float | None = None
     wave_velocity_ned: np.ndarray | None = None

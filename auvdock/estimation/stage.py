@@ -303,6 +303,7 @@ class NavigationStage:
         offset = est.dock_anchor_ned - self.dock_anchor
         lam = float(np.max(np.linalg.eigvalsh(est.flow_cov[0:2, 0:2])))
         share = min(1.0, math.sqrt(max(lam, 0.0)) / self.filter.settings.prior_current_std_m_s)
+        dock_now = (np.zeros(3) if self.dock is None else np.asarray(self.dock.position(readings.t))) + offset
         out = Estimate(
             readings.t,
             x.copy(),
@@ -312,13 +313,13 @@ class NavigationStage:
             flow_ned.copy(),
             dock_offset_ned=offset,
             relative_cov=est.relative_cov.copy(),
+            dock_position_ned=dock_now.copy(),
             dock_fix_t=self.dock_fix_t,
             current_uncertainty=share,
             wave_velocity_ned=None if est.wave_velocity_ned is None else est.wave_velocity_ned.copy(),
             wave_accel_ned=None if est.wave_accel_ned is None else est.wave_accel_ned.copy(),
             wave_model=self.filter.waves,
         )
-        dock_now = (np.zeros(3) if self.dock is None else np.asarray(self.dock.position(readings.t))) + offset
         series = {
             "estimated_state": x.copy(),
             "estimated_state_std": np.sqrt(np.clip(np.diag(est.state_cov), 0.0, None)),

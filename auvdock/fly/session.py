@@ -797,7 +797,7 @@ class FlySession:
         m = self.mission
         point = MarginVerdict(
             m.docking.tolerance_m,
-            self.dock,
+            self.autopilot.dock,  # the dock the estimate is relative to (with telemetry: its forecast)
             m.sensors.position.figures()[2],
             frame_cov=self.telemetry.frame_cov,
             position_bias_std_m=m.sensors.position.bias_std_m,

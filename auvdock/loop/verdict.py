@@ -11,7 +11,11 @@ dock ``r`` and that position's covariance ``P``:
 * ``estimation: filter``: the navigation filter's relative position and relative covariance once its
   dock states have taken a camera fix of the dock (a direct relative measurement); before one (or
   without a dock camera) the dock is where the mission charts it (Assumption 2) and the covariance is
-  the filter's position covariance;
+  the filter's position covariance.  The dock is the one the estimate is relative to, where the stage
+  placed it (:attr:`~auvdock.estimation.estimate.Estimate.dock_position_ned`): with the dock's telemetry
+  its motion is the forecast from that telemetry, not the chart's (judged on the chart's motion, a basin
+  rehearsal placed the nose 3-7 mm deeper than the filter's estimate did and declared two captures the
+  truth had not yet made);
 * ``estimation: truth``: the autopilot's position telemetry, the mean of its last five distinct
   readings (each carried to the newest along the relative velocity it was read with), with the
   position source's stated noise over five (isotropic; independent readings) and its slowly varying
@@ -122,10 +126,7 @@ class MarginVerdict:
         if estimate is None:
             self._recent.clear()
             return None
-        dock = np.asarray(self.dock.position(estimate.t), dtype=float)
-        if estimate.dock_offset_ned is not None:
-            dock = dock + estimate.dock_offset_ned
-        rel = estimate.state[POS] - dock
+        rel = estimate.state[POS] - self.dock_at(estimate)
         if estimate.relative_cov is not None and estimate.dock_fix_t is not None:
             basis, cov = "navigation filter's estimate", np.asarray(estimate.relative_cov, dtype=float)
         elif estimate.state_cov is not None:  # the dock as charted (no fix of it yet): the position's own
@@ -144,6 +145,18 @@ class MarginVerdict:
         if self.closest is None or verdict.bound_m < self.closest.bound_m:
             self.closest = verdict
         return verdict
+
+    def dock_at(self, estimate: Estimate) -> np.ndarray:
+        """The docking point (3,, NED m) the estimate is relative to, at its instant: where the estimation
+        stage placed it (:attr:`Estimate.dock_position_ned`, the dock the filter knows, whose telemetry-
+        forecast motion may differ from the chart's by millimetres), else the mission's dock moved by the
+        estimate's ``dock_offset_ned``."""
+        if estimate.dock_position_ned is not None:
+            return np.asarray(estimate.dock_position_ned, dtype=float)
+        dock = np.asarray(self.dock.position(estimate.t), dtype=float)
+        if estimate.dock_offset_ned is not None:
+            dock = dock + estimate.dock_offset_ned
+        return dock
 
     def _telemetry_mean(self, est: Estimate, rel: np.ndarray) -> tuple[np.ndarray, int]:
         """The relative position (3,, m) at ``est.t``: the mean of the last :data:`TELEMETRY_MEAN` distinct
@@ -203,9 +216,7 @@ class CaptureVerdict:
         if point is None or estimate is None:
             return None
         dock = self.margin.dock
-        p_dock = np.asarray(dock.position(estimate.t), dtype=float)
-        if estimate.dock_offset_ned is not None:
-            p_dock = p_dock + estimate.dock_offset_ned
+        p_dock = self.margin.dock_at(estimate)
         r95 = point.bound_m - point.distance_m
         h = float(dock.heading_rad)
         axis = np.array([math.cos(h), math.sin(h), 0.0])  # the cradle's axis x_d, into the dock

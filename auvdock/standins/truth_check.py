@@ -195,14 +195,15 @@ def _capture_right(
     tr: RunResults, status: np.ndarray, t_verdict: float, t_first: float, t_last: float, docked: bool
 ) -> tuple[str, bool]:
     """(the truth's contact at the verdict, whether the verdict is right) for a capture mission, on the
-    truth's rows of the flight (vehicle times ``t_first`` to ``t_last``, s; a row every 0.05 s): docked is
-    right when the truth is captured at the verdict's row (the nearest) and did not collide before it;
-    not docked is right when the truth was never captured during the flight."""
+    truth's rows of the flight (vehicle times ``t_first`` to ``t_last``, s; a row every 0.05 s and one at
+    each change of contact, so a row's status holds until the next): docked is right when the truth is
+    captured at the verdict's instant (the last row at or before it) and did not collide before it; not
+    docked is right when the truth was never captured during the flight."""
     t = tr.time_s
     armed = np.asarray(tr.extras["armed"], dtype=float) > 0.5
     during = (t >= t_first - 1e-9) & (t <= t_last + 1e-9) & armed & np.isfinite(status)
     names = np.array(CONTACT_STATUSES)[np.where(np.isfinite(status), status, 0).astype(int)]
-    i = int(np.argmin(np.abs(t - t_verdict)))
+    i = int(np.clip(np.searchsorted(t, t_verdict + 1e-9, side="right") - 1, 0, len(t) - 1))
     then = str(names[i])
     collided = during & (names == "collided") & (t < t[i] - 1e-9)
     if np.any(collided) and then != "collided":

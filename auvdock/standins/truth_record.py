@@ -6,7 +6,8 @@ write the vehicle's true trajectory, the true dock's and the motors' arming to a
 auvdock results file (the format of ``auvdock sim``'s, :mod:`auvdock.results.store`; it reads back
 with :func:`auvdock.results.store.read_run` and plots like any run): a row every :data:`TRUTH_PERIOD_S`
 of the simulator's time (every 5th physics step of vehicle-sim at 100 Hz; of sitl-physics, the first
-frame at or after each 0.05 s), with the truth's ``state`` (mission
+frame at or after each 0.05 s; with a capture mission also each physics step at which the truth's contact
+with the dock changes, so a row's status holds until the next row), with the truth's ``state`` (mission
 frame), ``dock_position_m``, ``distance_m`` (the vehicle's body origin to the docking point),
 ``channels_us`` (vehicle-sim) and ``armed`` (sitl-physics: the motors pushing).  ``time_s`` is the
 vehicle's own clock (vehicle-sim's ``time_boot_ms``; sitl-physics' physics time, which SITL's clock
@@ -94,7 +95,8 @@ TRUTH_PERIOD_S = 0.05
 
 
 class TruthRecord:
-    """A row sink of the stand-in's closed loop that keeps a row every :data:`TRUTH_PERIOD_S`.
+    """A row sink of the stand-in's closed loop that keeps a row every :data:`TRUTH_PERIOD_S`, and every
+    row whose ``contact_status`` differs from the last kept one's.
 
     Parameters
     ----------
@@ -113,6 +115,7 @@ class TruthRecord:
         self.closest_t_s = math.nan
         #: The first instant (s) the truth was captured, and collided, while armed (capture missions).
         self.first_s = {"captured": math.nan, "collided": math.nan}
+        self._status = math.nan  # the contact_status of the last row kept (capture missions)
 
     @classmethod
     def for_stand_in(
@@ -161,12 +164,14 @@ class TruthRecord:
             if what in self.first_s and math.isnan(self.first_s[what]):
                 self.first_s[what] = float(row["time_s"])
         t = float(row["time_s"])
-        if t >= self._next_t - 1e-9:
+        changed = False
+        if status is not None and float(status) != self._status:  # a contact begins or ends: the row is
+            changed, self._status = True, float(status)  # kept, so a row's status holds until the next
+        if t >= self._next_t - 1e-9 or t < self._next_t - TRUTH_PERIOD_S:  # due, or time went back (SITL)
             self.writer.append(**row)
             self._next_t = t + TRUTH_PERIOD_S
-        elif t < self._next_t - TRUTH_PERIOD_S:  # the simulator's time went back (a SITL restart)
+        elif changed:  # between two due rows: the schedule kept
             self.writer.append(**row)
-            self._next_t = t + TRUTH_PERIOD_S
 
     def finish(self, outcome: dict[str, Any]) -> None:
         """Write the outcome (the closest approach while armed added) and mark the file complete."""
