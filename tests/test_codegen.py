@@ -109,8 +109,8 @@ def auto_first_use(tmp_path_factory) -> dict:
 def test_build_once_then_load_and_same_answer(quick_build, quick, monkeypatch) -> None:
     cache, first_build = quick_build
     assert first_build == "compiled"
-    # the RTI's QP data and the offset-free observer's one-step model
-    assert sorted(p.name.split("-")[0] for p in cache.glob("*.so")) == ["mpc_model_step", "rti_qp_data"]
+    # the RTI's whole step (QP data and HPIPM) and the offset-free observer's one-step model
+    assert sorted(p.name.split("-")[0] for p in cache.glob("*.so")) == ["mpc_model_step", "rti_ocp_qp"]
     monkeypatch.setenv("AUVDOCK_COMPILE", "wait")
     monkeypatch.setenv("AUVDOCK_CACHE_DIR", str(cache.parent))
     m, v, d = _small()
@@ -131,7 +131,7 @@ def test_changed_parameter_builds_anew(cache, quick, quick_build) -> None:
     assert build_controller(m.with_controller("oracle").controller, v, d).mpc.build == "cache"
     m2, v2, d2 = _small(**{"controller.weights.R": 20.0})
     assert build_controller(m2.with_controller("oracle").controller, v2, d2).mpc.build == "compiled"
-    assert len(list(cache.glob("rti_qp_data-*.so"))) == 2  # the model step did not change
+    assert len(list(cache.glob("rti_ocp_qp-*.so"))) == 2  # the model step did not change
     assert len(list(cache.glob("mpc_model_step-*.so"))) == 1
     assert {p.name for p, _ in codegen.cache_entries()} == {p.name for p in cache.glob("*.so")}
     assert codegen.clear_cache() == 3
@@ -142,7 +142,7 @@ def test_changed_parameter_builds_anew(cache, quick, quick_build) -> None:
 def test_corrupted_cache_file_is_rebuilt_with_a_warning(cache, quick, quick_build) -> None:
     shutil.copytree(quick_build[0], cache)  # the problem built once (a copy: this test breaks it)
     m, v, d = _small()
-    (so,) = cache.glob("rti_qp_data-*.so")
+    (so,) = cache.glob("rti_ocp_qp-*.so")
     so.write_bytes(b"not a shared library")
     with pytest.warns(UserWarning, match="does not load"):
         c = build_controller(m.with_controller("oracle").controller, v, d)
@@ -183,7 +183,7 @@ def test_auto_mode_runs_uncompiled_and_compiles_in_the_background(auto_first_use
     assert seen["notices_after_first"] == [
         f"compiling {name} in the background for later runs (cached in {seen['cache']}); "
         "this run evaluates it uncompiled, with the same results"
-        for name in ("mpc_model_step", "rti_qp_data")
+        for name in ("mpc_model_step", "rti_ocp_qp")
     ]
     # a second build while the first compiles neither waits nor starts another one
     assert seen["second_build"] in ("uncompiled", "cache") and seen["notices_after_second"] == 2
@@ -197,23 +197,25 @@ def test_auto_mode_runs_uncompiled_and_compiles_in_the_background(auto_first_use
 
 @pytest.mark.slow
 def test_compiled_and_uncompiled_functions_give_the_same_bits(auto_first_use) -> None:
-    """The claim the background compile rests on, on the MPC's own QP data (the largest function):
-    the library the auto mode's first use built at the shipped flags, loaded from the cache,
-    against the uncompiled function that first use evaluated."""
-    import casadi as ca
-
+    """The claim the background compile rests on, on the MPC's own QP (its data the largest function):
+    the whole step the auto mode's first use built at the shipped flags (the data function's generated
+    C and HPIPM's OCP-QP interface), loaded from the cache, against the step that first use ran (the
+    data function uncompiled, HPIPM through CasADi's plugin), on random iterates and parameters."""
     assert auto_first_use["cflags"] == codegen.CFLAGS  # built at the shipped flags
     c, c_plain = auto_first_use["c3"], auto_first_use["c1"]
-    compiled = c.mpc._solver._rti._data
     assert c.mpc.build == "cache" and c_plain.mpc.build == "uncompiled"
-    plain = c_plain.mpc._solver._rti._data
-    assert isinstance(plain, ca.Function)
+    compiled, plain = c.mpc._solver._rti, c_plain.mpc._solver._rti
+    assert compiled.ocp is not None and plain.ocp is None
     rng = np.random.default_rng(7)
+    nw = compiled.ocp.nw
+    lbx, ubx = np.full(nw, -np.inf), np.full(nw, np.inf)
+    ix0 = c.mpc._ix[0]
     for _ in range(20):
-        w = rng.normal(size=compiled.size1_in(0))
-        p = rng.normal(size=compiled.size1_in(1)) * 0.5
-        for a, b in zip(compiled(w, p), plain(w, p), strict=True):
-            assert np.array_equal(np.asarray(ca.DM(a)), np.asarray(ca.DM(b)))
+        w = rng.normal(size=nw) * 0.1
+        p = rng.normal(size=c.mpc._n_params) * 0.5
+        lbx[ix0] = ubx[ix0] = w[ix0]
+        a, b = compiled.step(w, p, lbx, ubx, 0.0, 0.0), plain.step(w, p, lbx, ubx, 0.0, 0.0)
+        assert np.array_equal(a[0], b[0]) and a[1:3] == b[1:3]
 
 
 @pytest.mark.parametrize(

@@ -29,11 +29,16 @@ take 0.4 s; the following steps go on improving the plan anyway).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import casadi as ca
 import numpy as np
 
 from auvdock.runtime import timing
 from auvdock.runtime.codegen import compiled_function
+
+if TYPE_CHECKING:
+    from auvdock.controllers.ocp_qp import OcpQpStep
 
 __all__ = [
     "RealTimeIteration",
@@ -42,6 +47,7 @@ __all__ = [
     "QP_SOLVERS",
     "COLD_START_MAX_ITER",
     "qp_options",
+    "conic_plugin",
 ]
 
 #: Most steps the first solve of a run takes.
@@ -52,9 +58,18 @@ QRQP_OPTIONS = {"print_iter": False, "print_header": False, "print_info": False,
 
 #: The QP solvers an MPC can use (``solver.qp``), with what they are.
 QP_SOLVERS = {
-    "hpipm": "HPIPM, an interior-point method that solves the stage-wise QP by Riccati recursion",
+    "hpipm": "HPIPM, an interior-point method that solves the stage-wise QP by Riccati recursion; rti's "
+    "step compiled whole (the QP data and HPIPM's OCP-QP interface in one call, its memory made once: "
+    "auvdock.controllers.ocp_qp), the same bits as hpipm_casadi, which runs until it is compiled",
+    "hpipm_casadi": "HPIPM through CasADi's conic plugin (the reference of hpipm's compiled step)",
     "qrqp": "CasADi's qrqp, an active-set method on the sparse QP (sparse QR)",
 }
+
+
+def conic_plugin(qp: str) -> str:
+    """CasADi's conic plugin of the QP solver ``qp`` (:data:`QP_SOLVERS`)."""
+    return "hpipm" if qp in ("hpipm", "hpipm_casadi") else qp
+
 
 #: HPIPM's settings: its "speed" mode (Frison and Diehl 2020, HPIPM: a high-performance quadratic
 #: programming framework for model predictive control, IFAC-PapersOnLine 53(2)) with its own
@@ -71,7 +86,7 @@ def qp_options(qp: str, dims: dict | None) -> dict:
     """
     if qp == "qrqp":
         return dict(QRQP_OPTIONS)
-    if qp == "hpipm":
+    if qp in ("hpipm", "hpipm_casadi"):
         if dims is None:
             raise ValueError("the hpipm QP solver needs the problem's stage dimensions")
         return {**dims, "error_on_fail": False, "hpipm": dict(HPIPM_OPTIONS)}
@@ -115,8 +130,21 @@ class RealTimeIteration:
         grad = ca.gradient(f, w)
         Jg = ca.jacobian(g, w)
         fn = ca.Function("rti_qp_data", [w, p], [H, grad, Jg, g, f], ["w", "p"], ["H", "grad", "A", "g", "f"])
-        self._data, self.build = compiled_function(fn)
-        self._qp = ca.conic("rti_qp", qp, {"h": H.sparsity(), "a": Jg.sparsity()}, qp_options(qp, dims))
+        opts = qp_options(qp, dims)
+        #: The whole step compiled (``qp: hpipm``, once the library is built), else None: the reference.
+        self.ocp: OcpQpStep | None = None
+        whole = qp == "hpipm" and dims is not None
+        if whole:
+            from auvdock.controllers.ocp_qp import build_ocp_step
+
+            built = build_ocp_step(w, p, f, g, H, grad, Jg, dims, opts["hpipm"], [fn.serialize()])
+            if built is not None:
+                self.ocp, self.build = built
+        if self.ocp is None:
+            # until the whole step is compiled (or without a compiler) the plugin runs on the data
+            # function as it is: compiling that too would build a library the next run does not use
+            self._data, self.build = (fn, "uncompiled") if whole else compiled_function(fn)
+            self._qp = ca.conic("rti_qp", conic_plugin(qp), {"h": H.sparsity(), "a": Jg.sparsity()}, opts)
         self.max_iter = min(int(max_iter), COLD_START_MAX_ITER)
         self.tol = float(tol)
 
@@ -128,6 +156,8 @@ class RealTimeIteration:
         Returns ``(w_new, success, return_status, model cost, step infinity norm)``; the
         model cost is the QP's prediction ``f(w_bar) + q(dw)`` of the objective at ``w_new``.
         """
+        if self.ocp is not None:  # (the gaps' bounds are 0: the layout's)
+            return self.ocp.step(w_bar, p, lbx, ubx)
         with timing.part("qp data"):
             H, grad, A, gval, f0 = self._data(w_bar, p)
         gv = np.asarray(gval).ravel()

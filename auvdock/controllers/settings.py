@@ -98,11 +98,13 @@ class SolverSpec(Strict):
             "controller's own choice; auvdock.controllers.solvers)"
         ),
     )
-    qp: Literal["hpipm", "qrqp"] = Field(
+    qp: Literal["hpipm", "hpipm_casadi", "qrqp"] = Field(
         default="hpipm",
         description=(
             "QP solver of sqp and rti: hpipm (interior point by Riccati recursion on the stage-wise "
-            "problem) or qrqp (CasADi's active-set method on the sparse QP)"
+            "problem; rti's step compiled whole, QP data and HPIPM in one call), hpipm_casadi (HPIPM "
+            "through CasADi's plugin: the reference, the same bits) or qrqp (CasADi's active-set method "
+            "on the sparse QP)"
         ),
     )
     max_iter: Annotated[int, Field(ge=1, le=10_000)] = Field(

@@ -29,7 +29,7 @@ from typing import Protocol
 import casadi as ca
 import numpy as np
 
-from auvdock.controllers.rti import RealTimeIteration, qp_options
+from auvdock.controllers.rti import RealTimeIteration, conic_plugin, qp_options
 from auvdock.controllers.settings import SOLVER_NAMES, solver_names
 from auvdock.runtime import timing
 from auvdock.runtime.codegen import compiled_nlpsol
@@ -183,7 +183,7 @@ def build_sqp(problem: Problem, max_iter: int, tol: float) -> NLPSolver:
             "tol_pr": float(tol),
             "tol_du": float(tol) * 100,
             "hessian_approximation": "exact",
-            "qpsol": problem.qp,
+            "qpsol": conic_plugin(problem.qp),
             "qpsol_options": qp_options(problem.qp, problem.dims),
         }
     )

@@ -59,6 +59,7 @@ __all__ = [
     "find_compiler",
     "compiled_nlpsol",
     "compiled_function",
+    "compiled_library",
     "cache_entries",
     "clear_cache",
     "set_reporter",
@@ -179,7 +180,12 @@ _background: list[subprocess.Popen] = []
 
 
 def _start_background(
-    name: str, key: str, so: Path, cc: str, write_sources: Callable[[str], list[str]]
+    name: str,
+    key: str,
+    so: Path,
+    cc: str,
+    write_sources: Callable[[str], list[str]],
+    flags: tuple[str, ...] = (),
 ) -> bool:
     """Write the sources now and compile them in a detached process that puts the library in
     place when it is done (atomically); False when another process is already building it."""
@@ -206,7 +212,7 @@ def _start_background(
         shutil.rmtree(work, ignore_errors=True)
         raise
     out = work / "lib.so"
-    compile_cmd = " ".join(shlex.quote(str(a)) for a in [cc, *CFLAGS, *sources, "-o", out, "-lm"])
+    compile_cmd = " ".join(shlex.quote(str(a)) for a in [cc, *CFLAGS, *sources, "-o", out, *flags, "-lm"])
     script = (
         f"{compile_cmd} 2> {shlex.quote(str(work / 'compile.log'))} && mv -f {shlex.quote(str(out))} "
         f"{shlex.quote(str(so))}; rm -rf {shlex.quote(str(work))}"
@@ -258,14 +264,16 @@ def _cached_build(
     cc: str,
     write_sources: Callable[[str], list[str]],
     load: Callable[[Path], Any],
+    flags: tuple[str, ...] = (),
 ) -> tuple[Any, str] | None:
     """Load ``<cache>/<name>-<key>.so``, or build it; None when the caller should run uncompiled
     (the build failed, warned; or, in ``auto`` mode, it goes on in the background).
 
     ``write_sources(stem)`` writes C files into the working directory and returns their
-    names; ``load(so)`` makes the CasADi object from the library.
+    names; ``load(so)`` makes the CasADi object from the library; ``flags`` are the compiler's further
+    arguments (include paths, libraries to link).
     """
-    key = _key([name, *parts])
+    key = _key([name, *parts, " ".join(flags)])
     directory = cache_dir()
     so = directory / f"{name}-{key}.so"
     if so.is_file():
@@ -276,7 +284,7 @@ def _cached_build(
             so.unlink(missing_ok=True)
 
     if compile_mode() == "auto":
-        if _start_background(name, key, so, cc, write_sources):
+        if _start_background(name, key, so, cc, write_sources, flags):
             _notify(
                 f"compiling {name} in the background for later runs (cached in {directory}); "
                 "this run evaluates it uncompiled, with the same results"
@@ -293,7 +301,7 @@ def _cached_build(
             out = tmpd / "lib.so"
             # its own process group, so that stopping it stops cc1 and the assembler under the driver
             proc = subprocess.Popen(
-                [cc, *CFLAGS, *[str(s) for s in sources], "-o", str(out), "-lm"],
+                [cc, *CFLAGS, *[str(s) for s in sources], "-o", str(out), *flags, "-lm"],
                 stdout=subprocess.DEVNULL,
                 stderr=subprocess.PIPE,
                 text=True,
@@ -398,6 +406,27 @@ def compiled_function(
         lambda so: ca.external(fn.name(), str(so)),
     )
     return (fn, "uncompiled") if built is None else built
+
+
+def compiled_library(
+    name: str,
+    key_parts: list[bytes | str],
+    write_sources: Callable[[str], list[str]],
+    load: Callable[[Path], Any],
+    flags: tuple[str, ...] = (),
+) -> tuple[Any, str] | None:
+    """A shared library of C sources, built once and cached under the same rules as the solvers
+    (``$AUVDOCK_COMPILE``, the cache directory, the background build): ``(load(so), how)``, or None when
+    the caller should run its uncompiled reference this time (no compiler, compilation off, the build
+    failed (warned) or goes on in the background).
+
+    ``key_parts`` is everything that defines the library; ``write_sources(stem)`` writes the C files
+    into the working directory and returns their names; ``flags`` are the compiler's further arguments.
+    """
+    cc = _compiler_or_none()
+    if cc is None:
+        return None
+    return _cached_build(name, key_parts, cc, write_sources, load, flags)
 
 
 def cache_entries() -> list[tuple[Path, int]]:

@@ -1,0 +1,85 @@
+"""The real-time iteration's step compiled whole against HPIPM through CasADi's plugin, same runs.
+
+For each mission x controller (``rti``): one closed-loop run with ``controller.solver.qp: hpipm`` (the QP
+data and HPIPM's OCP-QP interface in one compiled call, its memory made once:
+``auvdock.controllers.ocp_qp``) and one with ``hpipm_casadi`` (the plugin, the reference), in
+interleaved rounds (``--rounds``; each pair in turn, so a busy machine slows both alike), all compiled
+first (``AUVDOCK_COMPILE=wait``).  Printed per pair: how the runs ended, whether their thrusts are the
+same bits, and per whole control step median, p95, p99 and largest (ms; the rounds' medians) with where
+the median step goes (ms per part; ``python``: what the parts leave).  Asserts nothing.
+
+    python benchmarks/rti_step.py [--rounds 3] [--case diagonal:oracle --case basin_regular:sequential]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import warnings
+
+import numpy as np
+
+CASES = ["diagonal:oracle", "diagonal:optimized", "basin_regular:sequential", "pacwave_common_10m:ce"]
+QPS = ("hpipm", "hpipm_casadi")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument(
+        "--case", action="append", help="MISSION:CONTROLLER (repeat); default: " + ", ".join(CASES)
+    )
+    ap.add_argument(
+        "--timeout", type=float, default=None, help="simulated seconds per run (default: the mission's)"
+    )
+    args = ap.parse_args()
+    os.environ.setdefault("AUVDOCK_COMPILE", "wait")
+    warnings.simplefilter("ignore")
+    from auvdock.campaign.bench import _parts_median_ms, machine_line
+    from auvdock.config.mission import load_mission
+    from auvdock.loop.simulation import run_simulation
+
+    cases = args.case or CASES
+    stats: dict[tuple[str, str], list[tuple]] = {(c, q): [] for c in cases for q in QPS}
+    thrust: dict[tuple[str, str], np.ndarray] = {}
+    print(f"rti_step on {machine_line()}", flush=True)
+    for r in range(args.rounds):
+        for case in cases:
+            mission, controller = case.split(":")
+            for qp in QPS:
+                m = load_mission(mission).with_updates(
+                    **{
+                        "controller.type": controller,
+                        "controller.solver.name": "rti",
+                        "controller.solver.qp": qp,
+                    }
+                )
+                s = run_simulation(m, keep=True, timeout_s=args.timeout)
+                assert s.run is not None
+                ms = np.asarray(s.solve_times_s)[1:] * 1e3
+                parts = {k: v[1:] for k, v in s.time_parts_s.items()}
+                stats[(case, qp)].append(
+                    (s.outcome, np.percentile(ms, [50, 95, 99]), ms.max(), _parts_median_ms(parts, ms))
+                )
+                thrust[(case, qp)] = np.asarray(s.run.thrust_N)
+            print(f"round {r + 1}: {case} done", flush=True)
+    for case in cases:
+        a, b = thrust[(case, QPS[0])], thrust[(case, QPS[1])]
+        same = a.shape == b.shape and np.array_equal(a, b, equal_nan=True)
+        print(f"\n{case}: thrusts of the two {'the same bits' if same else 'DIFFERENT'} ({a.shape[0]} rows)")
+        for qp in QPS:
+            rows = stats[(case, qp)]
+            out = rows[-1][0]
+            pct = np.median([r[1] for r in rows], axis=0)
+            mx = float(np.median([r[2] for r in rows]))
+            parts = {k: float(np.median([r[3].get(k, np.nan) for r in rows])) for k in rows[-1][3]}
+            ended = f"{out.get('reason')} at {out.get('time_to_dock_s', float('nan')):.2f} s"
+            where = ", ".join(f"{k} {v:.3f}" for k, v in parts.items())
+            print(
+                f"  {qp:<13} {ended:<22} median {pct[0]:.3f}  p95 {pct[1]:.3f}  p99 {pct[2]:.3f}"
+                f"  max {mx:.3f} ms  ({where})"
+            )
+
+
+if __name__ == "__main__":
+    main()
