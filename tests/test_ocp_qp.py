@@ -131,6 +131,24 @@ def test_the_compiled_step_gives_the_plugins_bits_along_a_closed_loop(compiled) 
     assert abs(out[0][-1][0]) < 0.5  # it did swing the pendulum down and settle
 
 
+def test_threads_stepping_one_compiled_step_get_their_own_answers(compiled) -> None:
+    """The step is shared by the controllers of one problem in a process, and the call lets go of the
+    GIL: four threads stepping it at once get the answers one thread gets."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    fast, _, nw = compiled
+    rng = np.random.default_rng(3)
+    cases = []
+    for _ in range(40):
+        x0 = np.array([rng.uniform(-2.5, 2.5), rng.uniform(-2, 2), rng.uniform(-1, 1)])
+        cases.append((rng.normal(size=nw) * 0.05, np.append(x0, 0.2), *_bounds(x0, nw)))
+    alone = [fast.step(w, p, lb, ub, 0.0, 0.0)[0] for w, p, lb, ub in cases]
+    with ThreadPoolExecutor(4) as pool:
+        together = list(pool.map(lambda c: fast.step(c[0], c[1], c[2], c[3], 0.0, 0.0)[0], cases * 5))
+    for k, w in enumerate(together):
+        np.testing.assert_array_equal(w, alone[k % len(cases)])
+
+
 def test_a_problem_that_is_not_stage_wise_is_refused_with_its_reason() -> None:
     w, p, f, g, H, dims = _pendulum_problem(couple=True)
     grad, Jg = ca.gradient(f, w), ca.jacobian(g, w)

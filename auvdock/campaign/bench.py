@@ -59,7 +59,7 @@ def bench_rows(
         Controller names (default: every registered one, in the registry's order) and
         ``controller.solver.name`` values (``auto``, ``rti``, ``sqp``, ``ipopt``).
     qps : sequence of str
-        ``controller.solver.qp`` values (``hpipm``, ``qrqp``) for the solvers that solve QPs
+        ``controller.solver.qp`` values (``hpipm``, ``hpipm_casadi``, ``qrqp``) for the solvers that solve QPs
         (``rti``, ``sqp``); ``ipopt`` runs once whatever they are.
     timeout_s : float, optional
         Simulated-time limit (default: the mission's 75 s).

@@ -26,7 +26,8 @@ def bench(
     qps: list[str] | None = typer.Option(
         None,
         "--qp",
-        help="QP solvers of rti and sqp: hpipm, qrqp; comma-separated or repeated (default: hpipm).",
+        help="QP solvers of rti and sqp: hpipm, hpipm_casadi, qrqp; comma-separated or repeated "
+        "(default: hpipm).",
     ),
     timeout: float | None = typer.Option(
         None, "--timeout", callback=positive_timeout, help="Simulated-time limit per run, s."

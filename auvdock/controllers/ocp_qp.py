@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import ctypes
 import os
+import threading
 from pathlib import Path
 from typing import Any
 
@@ -140,6 +141,9 @@ class OcpQpStep:
         self._info = np.zeros(8)
         self._info_p = self._info.ctypes.data
         self._w_p = self._w.ctypes.data
+        #: One step at a time: the step is shared by every controller of its problem in a process
+        #: (:meth:`auvdock.vehicle.Vehicle.built`), and threads (a Dask worker's) may run two at once.
+        self._lock = threading.Lock()
 
     def __del__(self) -> None:
         handle = getattr(self, "_handle", None)
@@ -157,23 +161,25 @@ class OcpQpStep:
         pp = np.ascontiguousarray(p, dtype=float)
         lb = np.ascontiguousarray(lbx, dtype=float)
         ub = np.ascontiguousarray(ubx, dtype=float)
-        status = self._step(
-            self._handle,
-            wb.ctypes.data,
-            pp.ctypes.data,
-            lb.ctypes.data,
-            ub.ctypes.data,
-            self._w_p,
-            self._info_p,
-        )
-        info = self._info
+        with self._lock:  # one step at a time in the one workspace (ctypes lets go of the GIL in the call)
+            status = self._step(
+                self._handle,
+                wb.ctypes.data,
+                pp.ctypes.data,
+                lb.ctypes.data,
+                ub.ctypes.data,
+                self._w_p,
+                self._info_p,
+            )
+            info = self._info.copy()
+            w_new = self._w.copy()
         timing.add("qp data", float(info[6]))
         timing.add("qp", float(info[7]))
         if status < 0:
             raise RuntimeError(f"the QP data function failed (flag {int(info[5])})")
         # the return status as the plugin gives it: HPIPM's code (0 solved, 1 the iteration limit, 2 the
         # smallest step, 3 NaN in the solution, 4 inconsistent equalities), as text
-        return self._w.copy(), status == 0, str(status), float(info[2]), float(info[3])
+        return w_new, status == 0, str(status), float(info[2]), float(info[3])
 
 
 def build_ocp_step(
