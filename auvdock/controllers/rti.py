@@ -134,7 +134,7 @@ class RealTimeIteration:
         #: The whole step compiled (``qp: hpipm``, once the library is built), else None: the reference.
         self.ocp: OcpQpStep | None = None
         whole = qp == "hpipm" and dims is not None
-        if whole:
+        if whole and dims is not None:
             from auvdock.controllers.ocp_qp import build_ocp_step
 
             built = build_ocp_step(w, p, f, g, H, grad, Jg, dims, opts["hpipm"], [fn.serialize()])
