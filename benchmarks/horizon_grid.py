@@ -44,7 +44,7 @@ def main() -> None:
     args = ap.parse_args()
     os.environ.setdefault("AUVDOCK_COMPILE", "wait")
     warnings.simplefilter("ignore")
-    from auvdock.campaign.bench import _parts_median_ms
+    from auvdock.campaign.bench import rounds_median, step_figures
     from auvdock.config.mission import load_mission
     from auvdock.loop.simulation import run_simulation
 
@@ -53,19 +53,14 @@ def main() -> None:
         for name, updates in GRIDS:
             m = load_mission(args.mission).with_updates(**updates)
             s = run_simulation(m, controller=args.controller)
-            ms = np.asarray(s.solve_times_s)[1:] * 1e3
-            parts = {k: v[1:] for k, v in s.time_parts_s.items()}
-            where = _parts_median_ms(parts, ms)
-            rows[name].append((m, s.outcome, np.percentile(ms, [50, 95, 99]), ms.max(), where))
+            rows[name].append((m, s.outcome, step_figures(s.solve_times_s, s.time_parts_s)))
             print(f"round {r + 1}: {name} done", flush=True)
     head = f"{'grid':<16} {'ahead s':>7} {'stages':>6} {'ended':<8} {'docked at':>9}"
     print(f"{args.mission}, {args.controller}; medians of {args.rounds} rounds")
     print(head + f" {'median ms':>9} {'p95':>6} {'p99':>6} {'max':>6}  where the median step goes (ms)")
     for name, runs in rows.items():
         m, outcome = runs[0][0], runs[0][1]
-        q = np.median([x[2] for x in runs], axis=0)
-        mx = float(np.median([x[3] for x in runs]))
-        parts = {k: float(np.median([x[4][k] for x in runs])) for k in runs[0][4]}
+        q, mx, parts = rounds_median([x[2] for x in runs])
         lengths = m.controller.stage_lengths_s()
         t_dock = outcome.get("time_to_dock_s")
         t_text = f"{t_dock:9.2f}" if t_dock is not None and np.isfinite(t_dock) else f"{'-':>9}"

@@ -35,7 +35,7 @@ def main() -> None:
     args = ap.parse_args()
     os.environ.setdefault("AUVDOCK_COMPILE", "wait")
     warnings.simplefilter("ignore")
-    from auvdock.campaign.bench import _parts_median_ms, machine_line
+    from auvdock.campaign.bench import machine_line, rounds_median, step_figures
     from auvdock.config.mission import load_mission
     from auvdock.loop.simulation import run_simulation
 
@@ -56,11 +56,7 @@ def main() -> None:
                 )
                 s = run_simulation(m, keep=True, timeout_s=args.timeout)
                 assert s.run is not None
-                ms = np.asarray(s.solve_times_s)[1:] * 1e3
-                parts = {k: v[1:] for k, v in s.time_parts_s.items()}
-                stats[(case, qp)].append(
-                    (s.outcome, np.percentile(ms, [50, 95, 99]), ms.max(), _parts_median_ms(parts, ms))
-                )
+                stats[(case, qp)].append((s.outcome, step_figures(s.solve_times_s, s.time_parts_s)))
                 thrust[(case, qp)] = np.asarray(s.run.thrust_N)
             print(f"round {r + 1}: {case} done", flush=True)
     for case in cases:
@@ -70,9 +66,7 @@ def main() -> None:
         for qp in QPS:
             rows = stats[(case, qp)]
             out = rows[-1][0]
-            pct = np.median([r[1] for r in rows], axis=0)
-            mx = float(np.median([r[2] for r in rows]))
-            parts = {k: float(np.median([r[3].get(k, np.nan) for r in rows])) for k in rows[-1][3]}
+            pct, mx, parts = rounds_median([r[1] for r in rows])
             ended = f"{out.get('reason')} at {out.get('time_to_dock_s', float('nan')):.2f} s"
             where = ", ".join(f"{k} {v:.3f}" for k, v in parts.items())
             print(

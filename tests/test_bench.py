@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
+import pytest
 from typer.testing import CliRunner
 
 from auvdock.cli import app
@@ -59,3 +61,18 @@ def test_bench_bad_input() -> None:
     res = runner.invoke(app, ["bench", "--solvers", "fast"])
     assert res.exit_code == 2
     assert res.stderr.strip() == "error: --solvers: unknown solver 'fast' (known: auto, ipopt, sqp, rti)"
+
+
+def test_step_figures_leave_out_the_cold_start_and_rounds_take_medians() -> None:
+    from auvdock.campaign.bench import rounds_median, step_figures
+
+    times = np.array([0.5, 0.001, 0.002, 0.003, 0.004])  # s; the first a cold start
+    parts = {"qp": np.array([0.4, 0.0005, 0.001, 0.0015, 0.002])}
+    pct, mx, where = step_figures(times, parts)
+    assert pct[0] == pytest.approx(2.5) and mx == pytest.approx(4.0)
+    assert where == pytest.approx({"qp": 1.25, "python": 1.25})
+    other = (pct + 2.0, mx + 2.0, {"qp": 3.25, "python": 1.25})
+    third = (pct + 4.0, mx + 4.0, {"qp": 5.25})
+    pct3, mx3, where3 = rounds_median([(pct, mx, where), other, third])
+    assert pct3 == pytest.approx(pct + 2.0) and mx3 == pytest.approx(6.0)
+    assert where3["qp"] == pytest.approx(3.25) and "python" not in where3  # the last round's parts

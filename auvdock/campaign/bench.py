@@ -18,7 +18,16 @@ import numpy as np
 from auvdock.campaign.machine import machine_line
 from auvdock.config.catalog import PAPER_MISSIONS, missions_dir
 
-__all__ = ["PAPER_MISSIONS", "DEFAULT_CASES", "machine_line", "default_missions_dir", "bench_rows"]
+__all__ = [
+    "PAPER_MISSIONS",
+    "DEFAULT_CASES",
+    "machine_line",
+    "default_missions_dir",
+    "bench_rows",
+    "StepFigures",
+    "step_figures",
+    "rounds_median",
+]
 
 DEFAULT_CASES = (1, 2, 6)
 
@@ -33,6 +42,28 @@ def _parts_median_ms(parts_s: dict[str, np.ndarray], total_ms: np.ndarray) -> di
     timed = np.sum([parts_s[p] for p in order], axis=0) * 1e3 if order else np.zeros_like(total_ms)
     out["python"] = float(np.median(total_ms - timed)) if len(total_ms) else float("nan")
     return out
+
+
+#: A run's whole control step: (median, p95, p99) ms, the largest (ms), the median ms per part
+#: (``python``: what the parts leave).
+StepFigures = tuple[np.ndarray, float, dict[str, float]]
+
+
+def step_figures(solve_times_s: np.ndarray, time_parts_s: dict[str, np.ndarray]) -> StepFigures:
+    """A run's :data:`StepFigures` from its steps' times and parts (s; :class:`RunSummary`'s), the first
+    step left out (a cold start: it iterates to convergence)."""
+    ms = np.asarray(solve_times_s)[1:] * 1e3
+    parts = {k: np.asarray(v)[1:] for k, v in time_parts_s.items()}
+    return np.percentile(ms, [50, 95, 99]), float(ms.max()), _parts_median_ms(parts, ms)
+
+
+def rounds_median(rounds: Sequence[StepFigures]) -> StepFigures:
+    """The median over interleaved rounds of one run's :data:`StepFigures`, figure by figure (a part
+    missing from a round counts as NaN)."""
+    pct = np.median([r[0] for r in rounds], axis=0)
+    mx = float(np.median([r[1] for r in rounds]))
+    names = list(rounds[-1][2])
+    return pct, mx, {k: float(np.median([r[2].get(k, np.nan) for r in rounds])) for k in names}
 
 
 def default_missions_dir() -> Path:
