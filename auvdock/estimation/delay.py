@@ -283,4 +283,5 @@ class DelayCompensation:
                 depth_rate_m_s=float(R[2] @ x[LIN]),
                 accel_m_s2=sensing.accel_m_s2,
             )
-        return dataclasses.replace(est, t=t1, state=x, flow_sensing=sensing)
+        # (the dock where the stage placed it was at the estimate's own instant: not carried to t1)
+        return dataclasses.replace(est, t=t1, state=x, flow_sensing=sensing, dock_position_ned=None)
