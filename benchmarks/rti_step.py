@@ -8,7 +8,10 @@ first (``AUVDOCK_COMPILE=wait``).  Printed per pair: how the runs ended, whether
 same bits, and per whole control step median, p95, p99 and largest (ms; the rounds' medians) with where
 the median step goes (ms per part; ``python``: what the parts leave).  Asserts nothing.
 
-    python benchmarks/rti_step.py [--rounds 3] [--case diagonal:oracle --case basin_regular:sequential]
+    python benchmarks/rti_step.py [--rounds 3] [--busy 2] [--case diagonal:oracle ...]
+
+``--busy N`` runs N busy loops (processes spinning on the CPU) beside the runs: the tails (p99, the
+largest) beside two of them, as the test suite's runs have each other.
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ QPS = ("hpipm", "hpipm_casadi")
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--busy", type=int, default=0, help="busy loops beside the runs (default 0)")
     ap.add_argument(
         "--case", action="append", help="MISSION:CONTROLLER (repeat); default: " + ", ".join(CASES)
     )
@@ -35,30 +39,31 @@ def main() -> None:
     args = ap.parse_args()
     os.environ.setdefault("AUVDOCK_COMPILE", "wait")
     warnings.simplefilter("ignore")
-    from auvdock.campaign.bench import machine_line, rounds_median, step_figures
+    from auvdock.campaign.bench import busy_loops, machine_line, rounds_median, step_figures
     from auvdock.config.mission import load_mission
     from auvdock.loop.simulation import run_simulation
 
     cases = args.case or CASES
     stats: dict[tuple[str, str], list[tuple]] = {(c, q): [] for c in cases for q in QPS}
     thrust: dict[tuple[str, str], np.ndarray] = {}
-    print(f"rti_step on {machine_line()}", flush=True)
-    for r in range(args.rounds):
-        for case in cases:
-            mission, controller = case.split(":")
-            for qp in QPS:
-                m = load_mission(mission).with_updates(
-                    **{
-                        "controller.type": controller,
-                        "controller.solver.name": "rti",
-                        "controller.solver.qp": qp,
-                    }
-                )
-                s = run_simulation(m, keep=True, timeout_s=args.timeout)
-                assert s.run is not None
-                stats[(case, qp)].append((s.outcome, step_figures(s.solve_times_s, s.time_parts_s)))
-                thrust[(case, qp)] = np.asarray(s.run.thrust_N)
-            print(f"round {r + 1}: {case} done", flush=True)
+    print(f"rti_step on {machine_line()}, beside {args.busy} busy loop(s)", flush=True)
+    with busy_loops(args.busy):  # beside busy loops, as the tests run (--busy 2: the tails)
+        for r in range(args.rounds):
+            for case in cases:
+                mission, controller = case.split(":")
+                for qp in QPS:
+                    m = load_mission(mission).with_updates(
+                        **{
+                            "controller.type": controller,
+                            "controller.solver.name": "rti",
+                            "controller.solver.qp": qp,
+                        }
+                    )
+                    s = run_simulation(m, keep=True, timeout_s=args.timeout)
+                    assert s.run is not None
+                    stats[(case, qp)].append((s.outcome, step_figures(s.solve_times_s, s.time_parts_s)))
+                    thrust[(case, qp)] = np.asarray(s.run.thrust_N)
+                print(f"round {r + 1}: {case} done", flush=True)
     for case in cases:
         a, b = thrust[(case, QPS[0])], thrust[(case, QPS[1])]
         same = a.shape == b.shape and np.array_equal(a, b, equal_nan=True)

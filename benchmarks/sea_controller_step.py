@@ -18,13 +18,12 @@ too.
 from __future__ import annotations
 
 import argparse
-import multiprocessing as mp
 import os
 import warnings
 
 import numpy as np
 
-from auvdock.campaign.bench import _parts_median_ms
+from auvdock.campaign.bench import _parts_median_ms, busy_loops
 from auvdock.config.mission import load_mission
 from auvdock.loop.simulation import run_simulation
 
@@ -34,24 +33,13 @@ RUNS = (
 )
 
 
-def _spin() -> None:
-    while True:
-        pass
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--controllers", nargs="+", default=["oracle", "ce", "sequential", "optimized"])
     ap.add_argument("--busy", type=int, default=0, help="busy loops beside the runs (default 0)")
     args = ap.parse_args()
-    spinners = [mp.Process(target=_spin, daemon=True) for _ in range(args.busy)]
-    for p in spinners:
-        p.start()
-    try:
+    with busy_loops(args.busy):
         _measure(args.controllers, args.busy)
-    finally:
-        for p in spinners:
-            p.terminate()
 
 
 def _measure(controllers: list[str], busy: int) -> None:

@@ -76,3 +76,14 @@ def test_step_figures_leave_out_the_cold_start_and_rounds_take_medians() -> None
     pct3, mx3, where3 = rounds_median([(pct, mx, where), other, third])
     assert pct3 == pytest.approx(pct + 2.0) and mx3 == pytest.approx(6.0)
     assert where3["qp"] == pytest.approx(3.25) and "python" not in where3  # the last round's parts
+
+
+def test_busy_loops_run_beside_the_block_and_stop_with_it() -> None:
+    import multiprocessing as mp
+
+    from auvdock.campaign.bench import busy_loops
+
+    before = len(mp.active_children())
+    with busy_loops(2):
+        assert len(mp.active_children()) == before + 2
+    assert len(mp.active_children()) == before

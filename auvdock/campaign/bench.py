@@ -9,7 +9,9 @@ outcome and the time to dock.  Figures are measured, never asserted in tests.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+import contextlib
+import multiprocessing as mp
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -27,6 +29,7 @@ __all__ = [
     "StepFigures",
     "step_figures",
     "rounds_median",
+    "busy_loops",
 ]
 
 DEFAULT_CASES = (1, 2, 6)
@@ -64,6 +67,26 @@ def rounds_median(rounds: Sequence[StepFigures]) -> StepFigures:
     mx = float(np.median([r[1] for r in rounds]))
     names = list(rounds[-1][2])
     return pct, mx, {k: float(np.median([r[2].get(k, np.nan) for r in rounds])) for k in names}
+
+
+def _spin() -> None:
+    while True:
+        pass
+
+
+@contextlib.contextmanager
+def busy_loops(n: int) -> Iterator[None]:
+    """``n`` processes spinning on the CPU while the block runs (a benchmark's steps measured beside
+    them, as the test suite's run beside each other); stopped when it ends."""
+    spinners = [mp.Process(target=_spin, daemon=True) for _ in range(max(0, int(n)))]
+    for p in spinners:
+        p.start()
+    try:
+        yield
+    finally:
+        for p in spinners:
+            p.terminate()
+            p.join(timeout=5.0)
 
 
 def default_missions_dir() -> Path:
