@@ -13,7 +13,7 @@ import contextlib
 import multiprocessing as mp
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -47,9 +47,15 @@ def _parts_median_ms(parts_s: dict[str, np.ndarray], total_ms: np.ndarray) -> di
     return out
 
 
-#: A run's whole control step: (median, p95, p99) ms, the largest (ms), the median ms per part
-#: (``python``: what the parts leave).
-StepFigures = tuple[np.ndarray, float, dict[str, float]]
+class StepFigures(NamedTuple):
+    """A run's whole control step."""
+
+    #: (median, p95, p99), ms.
+    percentiles_ms: np.ndarray
+    #: The largest, ms.
+    max_ms: float
+    #: The median ms per part (``python``: what the parts leave).
+    parts_ms: dict[str, float]
 
 
 def step_figures(solve_times_s: np.ndarray, time_parts_s: dict[str, np.ndarray]) -> StepFigures:
@@ -57,7 +63,7 @@ def step_figures(solve_times_s: np.ndarray, time_parts_s: dict[str, np.ndarray])
     step left out (a cold start: it iterates to convergence)."""
     ms = np.asarray(solve_times_s)[1:] * 1e3
     parts = {k: np.asarray(v)[1:] for k, v in time_parts_s.items()}
-    return np.percentile(ms, [50, 95, 99]), float(ms.max()), _parts_median_ms(parts, ms)
+    return StepFigures(np.percentile(ms, [50, 95, 99]), float(ms.max()), _parts_median_ms(parts, ms))
 
 
 def rounds_median(rounds: Sequence[StepFigures]) -> StepFigures:
@@ -66,7 +72,7 @@ def rounds_median(rounds: Sequence[StepFigures]) -> StepFigures:
     pct = np.median([r[0] for r in rounds], axis=0)
     mx = float(np.median([r[1] for r in rounds]))
     names = list(rounds[-1][2])
-    return pct, mx, {k: float(np.median([r[2].get(k, np.nan) for r in rounds])) for k in names}
+    return StepFigures(pct, mx, {k: float(np.median([r[2].get(k, np.nan) for r in rounds])) for k in names})
 
 
 def _spin() -> None:
