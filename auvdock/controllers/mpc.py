@@ -70,6 +70,7 @@ import casadi as ca
 import numpy as np
 
 from auvdock.controllers.entry import EntryCorridor, entry_residuals
+from auvdock.controllers.qp_stages import Stage, StageQP
 from auvdock.controllers.solvers import SOLVERS, NLPSolver, Problem, SolveResult
 from auvdock.controllers.status import STATUS_FAILED, STATUS_FALLBACK_ZERO, STATUS_NOT_CONVERGED, STATUS_OK
 from auvdock.estimation.water_ahead import WaterAhead
@@ -346,11 +347,13 @@ class DockingMPC:
         water_v = ca.SX.sym("water_v", 3, N)  # the water over the horizon (full prediction)
         water_a = ca.SX.sym("water_a", 3, N)
         entry_p = ca.SX.sym("entry", 3)  # [dock heading (rad, near the vehicle's), standoff (m), active]
-        params = ca.vertcat(
-            x0, u_prev, ca.vec(dock_p), ca.vec(dock_v), psi_ref, flow, u_off, extra, dist,
-            ca.vec(water_v), ca.vec(water_a), entry_p,
-        )  # fmt: skip
+        parts = [x0, u_prev, dock_p, dock_v, psi_ref, flow, u_off, extra, dist, water_v, water_a, entry_p]
+        params = ca.vertcat(*[ca.vec(v) for v in parts])
         n_params = params.shape[0]
+        # where each parameter's first value is in the vector (matrices by column)
+        names = ("x0", "u_prev", "dock_p", "dock_v", "psi_ref", "flow", "u_off", "extra", "dist", "water_v",
+                 "water_a", "entry")  # fmt: skip
+        at = dict(zip(names, (int(v) for v in np.cumsum([0] + [v.numel() for v in parts[:-1]])), strict=True))
 
         # one-step prediction, with the lumped disturbance [R^T f_n; m_b] (zero: the paper's model)
         xs = ca.SX.sym("xs", nx)
@@ -386,20 +389,30 @@ class DockingMPC:
         V = ca.SX.sym("V", nu, N + 1)
         U = ca.SX.sym("U", nu, N)
 
-        def over_ground(xk: ca.SX) -> ca.SX:
+        def over_ground(xk: ca.SX, fl: ca.SX) -> ca.SX:
             if self.prediction == "kinematic":
-                return xk[NU] + ca.vertcat(model.body_flow(xk[ETA], flow), 0, 0, 0)
+                return xk[NU] + ca.vertcat(model.body_flow(xk[ETA], fl), 0, 0, 0)
             return xk[NU]
 
-        def error(k: int) -> ca.SX:
-            xk = X[:, k]
+        def error(xk: ca.SX, dpk: ca.SX, dvk: ca.SX, psi: ca.SX, fl: ca.SX) -> ca.SX:
+            """e_k of the state ``xk`` against the dock at ``dpk``, moving at ``dvk``, heading ``psi``."""
             R_nb = model.rotation(xk[ETA])
-            v_ref = ca.mtimes(R_nb.T, dock_v[:, k])
+            v_ref = ca.mtimes(R_nb.T, dvk)
             return ca.vertcat(
-                xk[POS] - dock_p[:, k],
+                xk[POS] - dpk,
                 xk[ATT][0:2],
-                xk[YAW] - psi_ref,
-                over_ground(xk) - ca.vertcat(v_ref, 0, 0, 0),
+                xk[YAW] - psi,
+                over_ground(xk, fl) - ca.vertcat(v_ref, 0, 0, 0),
+            )
+
+        def entry_error(xk: ca.SX, dpk: ca.SX, dvk: ca.SX, fl: ca.SX, ent: ca.SX) -> ca.SX:
+            """The entry corridor's residuals of ``xk``; ``ent`` = [heading, standoff, active]."""
+            assert self.entry is not None
+            heading, standoff, active = ent[0], ent[1], ent[2]
+            axis = ca.vertcat(ca.cos(heading), ca.sin(heading), 0)
+            v_ned = ca.mtimes(model.rotation(xk[ETA]), over_ground(xk, fl)[0:3])
+            return entry_residuals(
+                self.entry, xk[POS], v_ned, xk[YAW], dpk + standoff * axis, dvk, heading, active
             )
 
         # cost (10) as weighted residuals: J = sum_i wts_i r_i^2 (Gauss-Newton Hessian 2 J_r^T W J_r)
@@ -409,7 +422,7 @@ class DockingMPC:
         g = []
         for k in range(N):
             if k >= 1:
-                res.append(error(k))
+                res.append(error(X[:, k], dock_p[:, k], dock_v[:, k], psi_ref, flow))
                 wts.append(self.Q * lasts[k - 1] if lasts[k - 1] != 1.0 else self.Q)
             res.append(U[:, k] - V[:, k])
             wts.append(self.R)
@@ -419,21 +432,13 @@ class DockingMPC:
             else:
                 g.append(step_k(X[:, k], U[:, k] + u_off, flow, zero, dist) - X[:, k + 1])
             g.append(U[:, k] - V[:, k + 1])
-        res.append(error(N))
+        res.append(error(X[:, N], dock_p[:, N], dock_v[:, N], psi_ref, flow))
         wts.append(self.P)
+        w_entry = np.zeros(0)
         if self.entry is not None:
-            heading, standoff, active = entry_p[0], entry_p[1], entry_p[2]
-            axis = ca.vertcat(ca.cos(heading), ca.sin(heading), 0)
             w_entry = np.asarray(self.entry.weights, dtype=float)
             for k in range(1, N + 1):
-                xk = X[:, k]
-                v_ned = ca.mtimes(model.rotation(xk[ETA]), over_ground(xk)[0:3])
-                res.append(
-                    entry_residuals(
-                        self.entry, xk[POS], v_ned, xk[YAW], dock_p[:, k] + standoff * axis, dock_v[:, k],
-                        heading, active,
-                    )
-                )  # fmt: skip
+                res.append(entry_error(X[:, k], dock_p[:, k], dock_v[:, k], flow, entry_p))
                 wts.append(w_entry * lasts[k - 1] if lasts[k - 1] != 1.0 else w_entry)
         r = ca.vertcat(*res)
         W = ca.DM(np.concatenate(wts))
@@ -454,7 +459,14 @@ class DockingMPC:
             H_gn = 2 * ca.mtimes(Jr.T, ca.mtimes(ca.diag(W), Jr))
             if objective_extra is not None and self._extra_hessian:
                 H_gn = H_gn + ca.hessian(J_extra, w)[0]
-        problem = Problem(w, params, J, ca.vertcat(*g), H_gn, hessian, dims, qp)
+        stages = None
+        if solver == "rti" and qp == "hpipm" and H_gn is not None:
+            if not (objective_extra is not None and self._extra_hessian):  # (its curvature couples stages)
+                J_fn = None
+                if objective_extra is not None:
+                    J_fn = ca.Function("mpc_path_cost", [w, params], [J_extra, ca.gradient(J_extra, w)])
+                stages = self._stage_qp(step, error, entry_error, at, n_params, w_entry, J_fn)
+        problem = Problem(w, params, J, ca.vertcat(*g), H_gn, hessian, dims, qp, stages)
         # index helpers into w
         stage = nx + 2 * nu
         starts = stage * np.arange(N + 1)[:, None]
@@ -472,6 +484,107 @@ class DockingMPC:
             iv=iv,
             iu=iu,
         )
+
+    # ------------------------------------------------------------------------------------
+    def _stage_qp(
+        self,
+        step: ca.Function,
+        error: Any,
+        entry_error: Any,
+        at: dict[str, int],
+        n_params: int,
+        w_entry: np.ndarray,
+        path_cost: ca.Function | None,
+    ) -> StageQP:
+        """The problem of :meth:`_build` stage by stage (:mod:`auvdock.controllers.qp_stages`): the same
+        prediction, residuals and weights, each kind of stage's functions built once.
+
+        ``step`` is the one-step prediction ``(x, u, flow, accel, disturbance) -> x+`` (RK4 over ``dt``);
+        ``error`` and ``entry_error`` the residuals of a state; ``at`` where each parameter begins in the
+        parameter vector; ``path_cost`` the whole path's extra cost and its gradient, or None."""
+        N, nx, nu = self.N, self.nx, self.nu
+        nt = nx + nu  # the augmented state [x; previous input]
+        # the one step and its derivatives, generated once; a stage of m steps chains it m times
+        xs, ua = ca.SX.sym("x", nx), ca.SX.sym("u", nu)
+        fl, ac, d6 = ca.SX.sym("flow", 3), ca.SX.sym("accel", 3), ca.SX.sym("disturbance", 6)
+        xn = step(xs, ua, fl, ac, d6)
+        dyn = ca.Function(
+            "mpc_stage_dynamics", [xs, ua, fl, ac, d6], [xn, ca.jacobian(xn, xs), ca.jacobian(xn, ua)]
+        )
+        gaps: dict[int, ca.Function] = {}
+        for m in sorted(set(int(v) for v in self.stage_substeps)):
+            gt, gu, gt1 = ca.MX.sym("xt", nt), ca.MX.sym("u", nu), ca.MX.sym("xt1", nt)
+            sg = ca.MX.sym("s", 12 + nu)  # flow (3), accel (3), disturbance (6), input offset (nu)
+            gx: Any = gt[:nx]
+            applied = gu + sg[12:]
+            Phi: Any = None
+            Psi: Any = None
+            for _ in range(m):
+                gx, Ax, Bu = dyn(gx, applied, sg[0:3], sg[3:6], sg[6:12])
+                Phi = Ax if Phi is None else ca.mtimes(Ax, Phi)
+                Psi = Bu if Psi is None else ca.mtimes(Ax, Psi) + Bu
+            A = ca.blockcat([[Phi, ca.MX(nx, nu)], [ca.MX(nu, nx), ca.MX(nu, nu)]])
+            B = ca.vertcat(Psi, ca.MX.eye(nu))
+            gaps[m] = ca.Function(f"mpc_stage_gap_{m}", [gt, gu, gt1, sg], [A, B, ca.vertcat(gx, gu) - gt1])
+
+        # the stage costs: the weighted residuals' Gauss-Newton blocks (2 J^T W J, 2 J^T W r, r^T W r)
+        xt, ut = ca.SX.sym("xt", nt), ca.SX.sym("u", nu)
+        sc = ca.SX.sym("s", 14)  # dock position (3), velocity (3), heading, flow (3), entry (3), weight scale
+        dpk, dvk, psi, flk, ent, scale = sc[0:3], sc[3:6], sc[6], sc[7:10], sc[10:13], sc[13]
+
+        def cost(name: str, res: list[Any], wts: list[Any], last: bool = False) -> ca.Function:
+            r, W = ca.vertcat(*res), ca.vertcat(*wts)
+            u = ca.SX(0, 1) if last else ut
+            z = ca.vertcat(xt, u)
+            Jr = ca.jacobian(r, z)
+            H = 2 * ca.mtimes(Jr.T, ca.mtimes(ca.diag(W), Jr))
+            grad = 2 * ca.mtimes(Jr.T, W * r)
+            m = z.shape[0]
+            outs = [H[:nt, :nt], H[nt:m, :nt], H[nt:m, nt:m], grad[:nt], grad[nt:m], ca.dot(W * r, r)]
+            return ca.Function(name, [xt, u, sc], [ca.densify(o) for o in outs])
+
+        x = xt[:nx]
+        rate = [ut - xt[nx:]]
+        rate_w = [ca.SX(ca.DM(self.R))]
+        corridor = [entry_error(x, dpk, dvk, flk, ent)] if self.entry is not None else []
+        corridor_w = [scale * ca.DM(w_entry)] if self.entry is not None else []
+        first = cost("mpc_stage_cost_first", rate, rate_w)
+        running = cost(
+            "mpc_stage_cost", [error(x, dpk, dvk, psi, flk), *rate, *corridor],
+            [scale * ca.DM(self.Q), *rate_w, *corridor_w],
+        )  # fmt: skip
+        terminal = [ca.SX(ca.DM(self.P)), *corridor_w]
+        last = cost("mpc_stage_cost_last", [error(x, dpk, dvk, psi, flk), *corridor], terminal, last=True)
+
+        # where each stage's parameters are in [p; consts] (consts: 0, then the stages' weight scales)
+        lasts = self.stage_dt / self.dt
+        consts = np.concatenate([[0.0], lasts])
+        zero = n_params
+
+        def cost_params(k: int) -> np.ndarray:
+            scale_at = n_params + 1 + (k - 1 if k >= 1 else 0)
+            return np.concatenate([
+                at["dock_p"] + 3 * k + np.arange(3), at["dock_v"] + 3 * k + np.arange(3), [at["psi_ref"]],
+                at["flow"] + np.arange(3), at["entry"] + np.arange(3), [scale_at],
+            ])  # fmt: skip
+
+        def gap_params(k: int) -> np.ndarray:
+            if self.prediction == "full":
+                water = [at["water_v"] + 3 * k + np.arange(3), at["water_a"] + 3 * k + np.arange(3)]
+            else:
+                water = [at["flow"] + np.arange(3), np.full(3, zero)]
+            return np.concatenate([*water, at["dist"] + np.arange(6), at["u_off"] + np.arange(nu)])
+
+        out = [
+            Stage(
+                gaps[int(self.stage_substeps[k])] if k < N else None,
+                gap_params(k) if k < N else np.zeros(0, dtype=int),
+                first if k == 0 else (last if k == N else running),
+                cost_params(k),
+            )
+            for k in range(N + 1)
+        ]
+        return StageQP(nt, nu, n_params, out, consts, path_cost)
 
     # ------------------------------------------------------------------------------------
     def reset(self) -> None:

@@ -10,8 +10,9 @@
  *
  * Layout (stage order, as auvdock.controllers.mpc.DockingMPC lays the problem out):
  *   w = [x_0, u_0, x_1, u_1, ..., x_N],   g = [F_0(x_0, u_0) - x_1, ..., F_(N-1)(.) - x_N]
- * AUVDOCK_QP_BLOCKS(w, p) -> (blocks, f): blocks = for k < N: A_k, B_k, b_k (column-major, dense),
- * then for k <= N: Q_k, S_k, R_k, q_k, r_k (the Hessian's and gradient's stage blocks); f the cost.
+ * AUVDOCK_QP_BLOCKS(w, p) -> (blocks, f): blocks = every A_k (k < N, column-major, dense), every B_k,
+ * every b_k, then every Q_k (k <= N), every S_k, R_k, q_k, r_k (the Hessian's and gradient's stage
+ * blocks); f the cost.
  */
 #define _POSIX_C_SOURCE 199309L
 #include <math.h>
@@ -110,18 +111,14 @@ auvdock_ocp *auvdock_ocp_create(int N, const int *nx, const int *nu, double inf_
     ARR(nulls, void *, S);
     {
         double *b = o->blocks;
-        for (k = 0; k < N; ++k) {
-            o->hA[k] = b; b += nx[k + 1] * nx[k];
-            o->hB[k] = b; b += nx[k + 1] * nu[k];
-            o->hb[k] = b; b += nx[k + 1];
-        }
-        for (k = 0; k < S; ++k) {
-            o->hQ[k] = b; b += nx[k] * nx[k];
-            o->hS[k] = b; b += nu[k] * nx[k];
-            o->hR[k] = b; b += nu[k] * nu[k];
-            o->hq[k] = b; b += nx[k];
-            o->hr[k] = b; b += nu[k];
-        }
+        for (k = 0; k < N; ++k) { o->hA[k] = b; b += nx[k + 1] * nx[k]; }
+        for (k = 0; k < N; ++k) { o->hB[k] = b; b += nx[k + 1] * nu[k]; }
+        for (k = 0; k < N; ++k) { o->hb[k] = b; b += nx[k + 1]; }
+        for (k = 0; k < S; ++k) { o->hQ[k] = b; b += nx[k] * nx[k]; }
+        for (k = 0; k < S; ++k) { o->hS[k] = b; b += nu[k] * nx[k]; }
+        for (k = 0; k < S; ++k) { o->hR[k] = b; b += nu[k] * nu[k]; }
+        for (k = 0; k < S; ++k) { o->hq[k] = b; b += nx[k]; }
+        for (k = 0; k < S; ++k) { o->hr[k] = b; b += nu[k]; }
         int ox = 0, ou = 0, oi = 0, i;
         for (k = 0; k < S; ++k) {
             o->hlbx[k] = o->lbx + ox; o->hubx[k] = o->ubx + ox; o->hx[k] = o->xs + ox;

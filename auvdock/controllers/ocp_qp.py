@@ -32,6 +32,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from auvdock.controllers.qp_stages import BLOCKS_FUNCTION
 from auvdock.runtime import timing
 from auvdock.runtime.codegen import compiled_library
 
@@ -42,7 +43,6 @@ HPIPM_MODES = {"speed_abs": 0, "speed": 1, "balance": 2, "robust": 3}
 #: What the plugin replaces an infinite bound by (its ``inf`` option's default).
 INF = 1e8
 _SOURCE = Path(__file__).with_name("ocp_qp.c")
-_FN = "auvdock_qp_blocks"
 
 
 def _casadi_dir() -> Path:
@@ -53,8 +53,8 @@ def stage_blocks(
     w: ca.SX, p: ca.SX, f: ca.SX, g: ca.SX, H: ca.SX, grad: ca.SX, Jg: ca.SX, nx: list[int], nu: list[int]
 ) -> ca.Function:
     """The QP's stage blocks as one function ``(w, p) -> (blocks, f)`` (column-major, dense; the order
-    of ``ocp_qp.c``): for k < N, A_k, B_k, b_k = g_k(w); then for k <= N, Q_k, S_k, R_k, q_k, r_k of the
-    Hessian ``H`` and gradient ``grad``.  Raises ValueError naming what breaks the stage structure."""
+    of ``ocp_qp.c``): every A_k, B_k, b_k = g_k(w) (k < N), then every Q_k, S_k, R_k, q_k, r_k (k <= N)
+    of the Hessian ``H`` and gradient ``grad``.  Raises ValueError naming what breaks the stage structure."""
     N = len(nx) - 1
     if len(nu) != N + 1 or nu[N] != 0:
         raise ValueError("stage_blocks: nu must have N + 1 entries, the last 0")
@@ -87,13 +87,13 @@ def stage_blocks(
         eye = Jg[rows[k], xs[k + 1]]
         if not (eye.is_constant() and np.array_equal(np.array(ca.DM(eye)), -np.eye(nx[k + 1]))):
             raise ValueError(f"stage_blocks: the gap of stage {k} is not F_k - x_(k+1)")
-    out = []
-    for k in range(N):
-        out += [Jg[rows[k], xs[k]], Jg[rows[k], us[k]], g[rows[k]]]
-    for k in range(N + 1):
-        out += [H[xs[k], xs[k]], H[us[k], xs[k]], H[us[k], us[k]], grad[xs[k]], grad[us[k]]]
+    out = [Jg[rows[k], xs[k]] for k in range(N)] + [Jg[rows[k], us[k]] for k in range(N)]
+    out += [g[rows[k]] for k in range(N)]
+    out += [H[xs[k], xs[k]] for k in range(N + 1)] + [H[us[k], xs[k]] for k in range(N + 1)]
+    out += [H[us[k], us[k]] for k in range(N + 1)] + [grad[xs[k]] for k in range(N + 1)]
+    out += [grad[us[k]] for k in range(N + 1)]
     blocks = ca.vertcat(*[ca.vec(ca.densify(b)) for b in out if b.numel() > 0])
-    return ca.Function(_FN, [w, p], [blocks, f], ["w", "p"], ["blocks", "f"])
+    return ca.Function(BLOCKS_FUNCTION, [w, p], [blocks, f], ["w", "p"], ["blocks", "f"])
 
 
 class OcpQpStep:
@@ -183,28 +183,19 @@ class OcpQpStep:
 
 
 def build_ocp_step(
-    w: ca.SX,
-    p: ca.SX,
-    f: ca.SX,
-    g: ca.SX,
-    H: ca.SX,
-    grad: ca.SX,
-    Jg: ca.SX,
-    dims: dict[str, Any],
-    options: dict[str, Any],
-    key_parts: list[bytes | str],
+    fn: ca.Function, dims: dict[str, Any], options: dict[str, Any], key_parts: list[bytes | str]
 ) -> tuple[OcpQpStep, str] | None:
-    """The compiled step of the QP ``dims`` lays out (``{"N", "nx", "nu", "ng"}``), or None when it
-    cannot be had this time (no compiler, ``AUVDOCK_COMPILE=never``, compiling in the background, the
-    build failed): the caller runs the plugin.  ``key_parts`` define the problem (the cache key).
-    Raises ValueError when the problem is not stage-structured (:func:`stage_blocks`)."""
+    """The compiled step of the QP whose blocks ``fn`` gives (``(w, p) -> (blocks, f)`` in ``ocp_qp.c``'s
+    order: :func:`stage_blocks` or :func:`auvdock.controllers.qp_stages.blocks_function`) and ``dims``
+    lays out (``{"N", "nx", "nu", "ng"}``), or None when it cannot be had this time (no compiler,
+    ``AUVDOCK_COMPILE=never``, compiling in the background, the build failed): the caller runs the
+    plugin.  ``key_parts`` define the problem (the cache key)."""
     nx, nu = [int(v) for v in dims["nx"]], [int(v) for v in dims["nu"]]
     if any(int(v) != 0 for v in dims.get("ng", [])):
         raise ValueError("the OCP-QP step has no general constraints (ng must be 0)")
-    fn = stage_blocks(w, p, f, g, H, grad, Jg, nx, nu)
     cdir = _casadi_dir()
     flags = (
-        f"-DAUVDOCK_QP_BLOCKS={_FN}",
+        f"-DAUVDOCK_QP_BLOCKS={fn.name()}",
         f"-I{cdir / 'include'}",
         f"-L{cdir}",
         f"-Wl,-rpath,{cdir}",
@@ -224,7 +215,6 @@ def build_ocp_step(
         return OcpQpStep(ctypes.CDLL(os.fspath(so)), nx, nu, options)
 
     options_key = repr(sorted(options.items()))
-    built = compiled_library(
+    return compiled_library(
         "rti_ocp_qp", [*key_parts, options_key, _SOURCE.read_bytes()], write_sources, load, flags
     )
-    return built

@@ -29,7 +29,7 @@ take 0.4 s; the following steps go on improving the plan anyway).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import casadi as ca
 import numpy as np
@@ -39,6 +39,7 @@ from auvdock.runtime.codegen import compiled_function
 
 if TYPE_CHECKING:
     from auvdock.controllers.ocp_qp import OcpQpStep
+    from auvdock.controllers.qp_stages import StageQP
 
 __all__ = [
     "RealTimeIteration",
@@ -112,6 +113,9 @@ class RealTimeIteration:
         The QP solver (:data:`QP_SOLVERS`).
     dims : dict, optional
         Stage layout of ``w`` and ``g`` (:func:`qp_options`); needed by HPIPM.
+    stages : StageQP, optional
+        The QP's data stage by stage (:mod:`auvdock.controllers.qp_stages`), which ``qp: hpipm``
+        compiles; without it, the blocks come from the whole problem's derivatives.
     """
 
     def __init__(
@@ -126,27 +130,64 @@ class RealTimeIteration:
         tol: float = 1e-6,
         qp: str = "qrqp",
         dims: dict | None = None,
+        stages: StageQP | None = None,
     ) -> None:
-        grad = ca.gradient(f, w)
-        Jg = ca.jacobian(g, w)
-        fn = ca.Function("rti_qp_data", [w, p], [H, grad, Jg, g, f], ["w", "p"], ["H", "grad", "A", "g", "f"])
-        opts = qp_options(qp, dims)
-        #: The whole step compiled (``qp: hpipm``, once the library is built), else None: the reference.
+        #: The whole step compiled (``qp: hpipm``, once the library is built), else None.
         self.ocp: OcpQpStep | None = None
-        whole = qp == "hpipm" and dims is not None
-        if whole and dims is not None:
-            from auvdock.controllers.ocp_qp import build_ocp_step
-
-            built = build_ocp_step(w, p, f, g, H, grad, Jg, dims, opts["hpipm"], [fn.serialize()])
-            if built is not None:
-                self.ocp, self.build = built
-        if self.ocp is None:
-            # until the whole step is compiled (or without a compiler) the plugin runs on the data
-            # function as it is: compiling that too would build a library the next run does not use
-            self._data, self.build = (fn, "uncompiled") if whole else compiled_function(fn)
+        #: The QP's data stage by stage, as the problem describes them (None: from the whole problem).
+        self.stages = stages
+        #: Until it is (or without a compiler): the same blocks uncompiled, laid out for the plugin.
+        self._blocks: ca.Function | None = None
+        opts = qp_options(qp, dims)
+        if qp == "hpipm" and dims is not None:
+            self._build_whole(w, p, f, g, H, dims, opts, stages)
+        else:
+            grad = ca.gradient(f, w)
+            Jg = ca.jacobian(g, w)
+            names = ["H", "grad", "A", "g", "f"]
+            fn = ca.Function("rti_qp_data", [w, p], [H, grad, Jg, g, f], ["w", "p"], names)
+            self._data: Any = None  # (w, p) -> (H, grad, A, g, f)
+            self._data, self.build = compiled_function(fn)
             self._qp = ca.conic("rti_qp", conic_plugin(qp), {"h": H.sparsity(), "a": Jg.sparsity()}, opts)
         self.max_iter = min(int(max_iter), COLD_START_MAX_ITER)
         self.tol = float(tol)
+
+    def _build_whole(
+        self, w: ca.SX, p: ca.SX, f: ca.SX, g: ca.SX, H: ca.SX, dims: dict, opts: dict, stages: StageQP | None
+    ) -> None:
+        """``qp: hpipm``: the blocks stage by stage (``stages``) or, for a problem that does not describe
+        its stages, from the whole problem's derivatives (:func:`auvdock.controllers.ocp_qp.stage_blocks`);
+        compiled with HPIPM's OCP-QP into one call, or the plugin on the same blocks until then."""
+        from auvdock.controllers.ocp_qp import build_ocp_step, stage_blocks
+        from auvdock.controllers.qp_stages import SparseAssembly, blocks_function
+
+        if stages is not None:
+            blocks, key = blocks_function(stages), stages.key_parts()
+        else:
+            grad = ca.gradient(f, w)
+            Jg = ca.jacobian(g, w)
+            blocks = stage_blocks(w, p, f, g, H, grad, Jg, dims["nx"], dims["nu"])
+            key = [blocks.serialize()]
+        built = build_ocp_step(blocks, dims, opts["hpipm"], key)
+        if built is not None:
+            self.ocp, self.build = built
+            return
+        # until the step is compiled: the blocks as they are (compiling them alone would build a
+        # library the next run does not use), to the plugin
+        nx, nu = int(dims["nx"][0]), int(dims["nu"][0])
+        self._blocks, self.build = blocks, "uncompiled"
+        self._data = self._blocks_data
+        self._assembly = SparseAssembly(nx, nu, int(dims["N"]))
+        self._qp = ca.conic(
+            "rti_qp", "hpipm", {"h": self._assembly.h_sparsity, "a": self._assembly.a_sparsity}, opts
+        )
+
+    def _blocks_data(self, w_bar: np.ndarray, p: np.ndarray) -> tuple:
+        """The QP's data at ``w_bar``: ``(H, grad, Jg, g, f)``."""
+        assert self._blocks is not None
+        blocks, f0 = self._blocks(w_bar, p)
+        H, grad, Jg, g = self._assembly(np.asarray(blocks))
+        return H, grad, Jg, g, f0
 
     def step(
         self, w_bar: np.ndarray, p: np.ndarray, lbx: np.ndarray, ubx: np.ndarray, lbg: float, ubg: float

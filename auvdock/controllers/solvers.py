@@ -29,6 +29,7 @@ from typing import Protocol
 import casadi as ca
 import numpy as np
 
+from auvdock.controllers.qp_stages import StageQP
 from auvdock.controllers.rti import RealTimeIteration, conic_plugin, qp_options
 from auvdock.controllers.settings import SOLVER_NAMES, solver_names
 from auvdock.runtime import timing
@@ -57,6 +58,8 @@ class Problem:
     dims: dict | None = None
     #: the QP solver of rti (and sqp): qrqp, hpipm, ...
     qp: str = "qrqp"
+    #: the QP's data stage by stage (rti with hpipm compiles it), None: from the whole problem
+    stages: StageQP | None = None
 
     @property
     def nlp(self) -> dict[str, ca.SX]:
@@ -206,6 +209,7 @@ class _RTI:
             tol=tol,
             qp=problem.qp,
             dims=problem.dims,
+            stages=problem.stages,
         )
         self.build = self._rti.build
 
