@@ -2,11 +2,10 @@
 
 The paper's case 2 (``diagonal``: a constant current, the dock heaving) with Oracle MPC (robust variant,
 ``rti`` + HPIPM), one closed-loop run per grid, the solvers compiled first (``AUVDOCK_COMPILE=wait``, the
-default here) or all uncompiled (``AUVDOCK_COMPILE=never``: a coarse stage's generated code is as large as
-the fine steps it spans, and compiling the 2 s coarse grid's took more than 16 minutes of CPU on the
-2-core machine):
+default here; the QP's data are generated stage by stage, :mod:`auvdock.controllers.qp_stages`, so a
+grid compiles in seconds whatever its length) or all uncompiled (``AUVDOCK_COMPILE=never``):
 
-* uniform grids of the control period (0.05 s): N = 10 (0.5 s, the paper's), 20 (1 s), 40 (2 s);
+* uniform grids of the control period (0.05 s): N = 10 (0.5 s, the paper's), 20 (1 s), 40 (2 s), 80 (4 s);
 * fine-then-coarse grids (``controller.coarse``): 10 steps of 0.05 s, then 6 or 12 steps of 0.25 s
   (2 s, 3.5 s ahead) or 8 of 0.5 s (4.5 s).
 
@@ -30,6 +29,7 @@ GRIDS: list[tuple[str, dict]] = [
     ("uniform 10", {"controller.horizon_steps": 10}),
     ("uniform 20", {"controller.horizon_steps": 20}),
     ("uniform 40", {"controller.horizon_steps": 40}),
+    ("uniform 80", {"controller.horizon_steps": 80}),
     ("10 + 6 x 0.25", {"controller.coarse.steps": 6, "controller.coarse.dt_s": 0.25}),
     ("10 + 12 x 0.25", {"controller.coarse.steps": 12, "controller.coarse.dt_s": 0.25}),
     ("10 + 8 x 0.5", {"controller.coarse.steps": 8, "controller.coarse.dt_s": 0.5}),

@@ -73,7 +73,7 @@ def test_the_stage_wise_data_are_the_whole_problems(case, monkeypatch) -> None:
     kw = dict(CASES[case])
     kw.setdefault("horizon", 5)
     (mpc, fast), (_, ref) = _rtis(monkeypatch, **kw)
-    assert fast._blocks is not None and ref._blocks is None  # stage-wise, and the whole-problem reference
+    assert fast.stages is not None and ref.stages is None  # stage-wise, and the whole-problem reference
     rng = np.random.default_rng(11)
     for _ in range(4):
         w, p = _random_point(mpc, rng)
@@ -91,10 +91,10 @@ def test_the_generated_code_does_not_grow_with_the_horizon(tmp_path, monkeypatch
     sizes = {}
     for N in (4, 40):
         (_, fast), _ = _rtis(monkeypatch, horizon=N)
-        assert fast._blocks is not None
+        assert fast.stages is not None
         path = tmp_path / f"blocks_{N}.c"
         cg = ca.CodeGenerator(str(path.name))
-        cg.add(fast._blocks)
+        cg.add(blocks_function(fast.stages))
         monkeypatch.chdir(tmp_path)
         cg.generate()
         sizes[N] = path.stat().st_size

@@ -11,9 +11,12 @@ created once, when the step is built (``auvdock/controllers/ocp_qp.c``).
 
 It poses HPIPM the plugin's QP, operation for operation: every variable boxed, infinite bounds as
 ``+-1e8`` (the plugin's ``inf``), the Hessian and gradient halved, a zero first guess, the same mode
-and options.  So both give the same bits (``tests/test_ocp_qp.py`` checks it on random states and
-along closed-loop runs), and a run's outcome does not depend on which one ran: the plugin runs while
-the library is being compiled (``AUVDOCK_COMPILE=auto``) or without a compiler.
+and options.  So both give the same bits on the same data (``tests/test_ocp_qp.py`` checks it on random
+states and along closed-loop runs), and a run's outcome does not depend on which one ran: the plugin,
+on the same data uncompiled, runs while the library is being compiled (``AUVDOCK_COMPILE=auto``) or
+without a compiler.  The data come stage by stage for the docking MPC
+(:mod:`auvdock.controllers.qp_stages`), or from the whole problem's derivatives (:func:`stage_blocks`)
+for a problem that does not describe its stages.
 
 Layout: the MPC's stage order ``w = [x_0, u_0, ..., x_N]`` with the gaps ``g_k = F_k(x_k, u_k) -
 x_(k+1)`` (:class:`auvdock.controllers.mpc.DockingMPC`); :func:`stage_blocks` checks that the problem

@@ -186,8 +186,8 @@ def blocks_function(qp: StageQP) -> ca.Function:
 class SparseAssembly:
     """The blocks of :func:`blocks_function` as the sparse QP data CasADi's conic plugins take: the
     Hessian (the stages' ``[Q S'; S R]``, both triangles), the gradient, the gaps' Jacobian ``[A_k B_k
-    -I]`` and their values.  Placing numbers, no arithmetic: the plugin gets exactly the compiled step's
-    numbers."""
+    -I]`` and their values (:meth:`data_function`).  Placing numbers, no arithmetic: the plugin gets
+    exactly the compiled step's numbers."""
 
     def __init__(self, nx: int, nu: int, N: int) -> None:
         stage = nx + nu
@@ -252,9 +252,21 @@ class SparseAssembly:
                 self._grad_src[stage * k + nx + np.arange(nu)] = names["r"][k].ravel()
         self._g_src = np.concatenate([names["b"][k].ravel() for k in range(N)])
 
-    def __call__(self, blocks: np.ndarray) -> tuple[ca.DM, np.ndarray, ca.DM, np.ndarray]:
-        """``(H, grad, Jg, g)`` from the blocks (n_blocks,)."""
-        v = np.append(np.asarray(blocks, dtype=float).ravel(), -1.0)  # index -1: the -I's value
-        H = ca.DM(self.h_sparsity, v[self._h_src])
-        Jg = ca.DM(self.a_sparsity, v[self._a_src])
-        return H, v[self._grad_src], Jg, v[self._g_src]
+    def data_function(self, blocks: ca.Function) -> ca.Function:
+        """The QP's data as the plugin takes them, ``(w, p) -> (H, grad, Jg, g, f)`` (H and Jg sparse), from
+        the blocks function ``blocks`` (:func:`blocks_function`), expanded into one SX function: CasADi's
+        virtual machine evaluates it several times faster than the calls of the MX one, and the values
+        are the blocks' own (copied, no arithmetic)."""
+        sx = blocks.expand()
+        w, p = sx.sx_in(0), sx.sx_in(1)
+        bl, f = sx(w, p)
+        v = ca.vertcat(bl, -1)  # the last: the -I's value (index -1)
+        n = v.shape[0]
+
+        def pick(idx: np.ndarray) -> ca.SX:
+            return v[[int(i) % n for i in idx]]
+
+        H = ca.SX(self.h_sparsity, pick(self._h_src))
+        Jg = ca.SX(self.a_sparsity, pick(self._a_src))
+        outs = [H, pick(self._grad_src), Jg, pick(self._g_src), f]
+        return ca.Function("rti_qp_stage_data", [w, p], outs, ["w", "p"], ["H", "grad", "A", "g", "f"])

@@ -60,9 +60,11 @@ QRQP_OPTIONS = {"print_iter": False, "print_header": False, "print_info": False,
 #: The QP solvers an MPC can use (``solver.qp``), with what they are.
 QP_SOLVERS = {
     "hpipm": "HPIPM, an interior-point method that solves the stage-wise QP by Riccati recursion; rti's "
-    "step compiled whole (the QP data and HPIPM's OCP-QP interface in one call, its memory made once: "
-    "auvdock.controllers.ocp_qp), the same bits as hpipm_casadi, which runs until it is compiled",
-    "hpipm_casadi": "HPIPM through CasADi's conic plugin (the reference of hpipm's compiled step)",
+    "step compiled whole: the QP's data generated stage by stage (auvdock.controllers.qp_stages) and "
+    "HPIPM's OCP-QP interface in one call, its memory made once (auvdock.controllers.ocp_qp); until it "
+    "is compiled the plugin solves the same data (the same bits)",
+    "hpipm_casadi": "HPIPM through CasADi's conic plugin on the whole problem's derivatives (the "
+    "reference of hpipm: the same QP, to rounding)",
     "qrqp": "CasADi's qrqp, an active-set method on the sparse QP (sparse QR)",
 }
 
@@ -136,8 +138,6 @@ class RealTimeIteration:
         self.ocp: OcpQpStep | None = None
         #: The QP's data stage by stage, as the problem describes them (None: from the whole problem).
         self.stages = stages
-        #: Until it is (or without a compiler): the same blocks uncompiled, laid out for the plugin.
-        self._blocks: ca.Function | None = None
         opts = qp_options(qp, dims)
         if qp == "hpipm" and dims is not None:
             self._build_whole(w, p, f, g, H, dims, opts, stages)
@@ -172,22 +172,11 @@ class RealTimeIteration:
         if built is not None:
             self.ocp, self.build = built
             return
-        # until the step is compiled: the blocks as they are (compiling them alone would build a
-        # library the next run does not use), to the plugin
-        nx, nu = int(dims["nx"][0]), int(dims["nu"][0])
-        self._blocks, self.build = blocks, "uncompiled"
-        self._data = self._blocks_data
-        self._assembly = SparseAssembly(nx, nu, int(dims["N"]))
-        self._qp = ca.conic(
-            "rti_qp", "hpipm", {"h": self._assembly.h_sparsity, "a": self._assembly.a_sparsity}, opts
-        )
-
-    def _blocks_data(self, w_bar: np.ndarray, p: np.ndarray) -> tuple:
-        """The QP's data at ``w_bar``: ``(H, grad, Jg, g, f)``."""
-        assert self._blocks is not None
-        blocks, f0 = self._blocks(w_bar, p)
-        H, grad, Jg, g = self._assembly(np.asarray(blocks))
-        return H, grad, Jg, g, f0
+        # until the step is compiled: the same blocks uncompiled (compiling them alone would build a
+        # library the next run does not use), laid out for the plugin
+        assembly = SparseAssembly(int(dims["nx"][0]), int(dims["nu"][0]), int(dims["N"]))
+        self._data, self.build = assembly.data_function(blocks), "uncompiled"
+        self._qp = ca.conic("rti_qp", "hpipm", {"h": assembly.h_sparsity, "a": assembly.a_sparsity}, opts)
 
     def step(
         self, w_bar: np.ndarray, p: np.ndarray, lbx: np.ndarray, ubx: np.ndarray, lbg: float, ubg: float
