@@ -254,19 +254,17 @@ class SparseAssembly:
 
     def data_function(self, blocks: ca.Function) -> ca.Function:
         """The QP's data as the plugin takes them, ``(w, p) -> (H, grad, Jg, g, f)`` (H and Jg sparse), from
-        the blocks function ``blocks`` (:func:`blocks_function`), expanded into one SX function: CasADi's
-        virtual machine evaluates it several times faster than the calls of the MX one, and the values
-        are the blocks' own (copied, no arithmetic)."""
-        sx = blocks.expand()
-        w, p = sx.sx_in(0), sx.sx_in(1)
-        bl, f = sx(w, p)
+        the blocks function ``blocks`` (:func:`blocks_function`): the blocks' own values, copied into
+        place (no arithmetic), in CasADi's virtual machine."""
+        w, p = ca.MX.sym("w", blocks.size1_in(0)), ca.MX.sym("p", blocks.size1_in(1))
+        bl, f = blocks(w, p)
         v = ca.vertcat(bl, -1)  # the last: the -I's value (index -1)
         n = v.shape[0]
 
-        def pick(idx: np.ndarray) -> ca.SX:
+        def pick(idx: np.ndarray) -> ca.MX:
             return v[[int(i) % n for i in idx]]
 
-        H = ca.SX(self.h_sparsity, pick(self._h_src))
-        Jg = ca.SX(self.a_sparsity, pick(self._a_src))
+        H = ca.MX(self.h_sparsity, pick(self._h_src))
+        Jg = ca.MX(self.a_sparsity, pick(self._a_src))
         outs = [H, pick(self._grad_src), Jg, pick(self._g_src), f]
         return ca.Function("rti_qp_stage_data", [w, p], outs, ["w", "p"], ["H", "grad", "A", "g", "f"])

@@ -35,7 +35,7 @@ import casadi as ca
 import numpy as np
 
 from auvdock.runtime import timing
-from auvdock.runtime.codegen import compiled_function
+from auvdock.runtime.codegen import compile_mode, compiled_function
 
 if TYPE_CHECKING:
     from auvdock.controllers.ocp_qp import OcpQpStep
@@ -162,13 +162,15 @@ class RealTimeIteration:
         from auvdock.controllers.qp_stages import SparseAssembly, blocks_function
 
         if stages is not None:
-            blocks, key = blocks_function(stages), stages.key_parts()
+            blocks = blocks_function(stages)
         else:
             grad = ca.gradient(f, w)
             Jg = ca.jacobian(g, w)
             blocks = stage_blocks(w, p, f, g, H, grad, Jg, dims["nx"], dims["nu"])
-            key = [blocks.serialize()]
-        built = build_ocp_step(blocks, dims, opts["hpipm"], key)
+        built = None
+        if compile_mode() != "never":  # (the key serialises the functions: not for nothing)
+            key: list[bytes | str] = stages.key_parts() if stages is not None else [blocks.serialize()]
+            built = build_ocp_step(blocks, dims, opts["hpipm"], key)
         if built is not None:
             self.ocp, self.build = built
             return
