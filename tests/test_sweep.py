@@ -116,6 +116,18 @@ def test_shipped_sweeps_expand(tmp_path: Path, monkeypatch) -> None:
     assert [x["docked"] for x in t.model_dump()["reference"]] == [8]
 
 
+def test_the_horizon_sweep_flies_each_grid_with_each_controller() -> None:
+    s = load_sweep("pacwave_horizon")
+    runs = expand_sweep(s)
+    assert len(runs) == s.n_runs == 4 * 2 * 10
+    grids = {
+        (r.mission["controller"]["horizon_steps"], r.mission["controller"]["coarse"]["steps"], r.controller)
+        for r in runs
+    }
+    assert grids == {(n, c, k) for n in (10, 40) for c in (0, 8) for k in ("oracle", "ce")}
+    assert {r.mission["controller"]["coarse"]["dt_s"] for r in runs} == {0.5}
+
+
 def test_expansion_ids_derived_flow_and_reproducible_draws(tmp_path: Path) -> None:
     text = f"""\
 name: draws
