@@ -14,6 +14,7 @@ horizon.  Asserts nothing.
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import subprocess
 import sys
@@ -29,11 +30,11 @@ GRIDS: dict[str, dict[str, float]] = {
 }
 
 _CHILD = """
-import sys, warnings
+import json, sys, warnings
 warnings.simplefilter("ignore")
 from auvdock.config.mission import load_mission
 from auvdock.loop.simulation import run_simulation
-updates = eval(sys.argv[1])
+updates = json.loads(sys.argv[1])
 m = load_mission("diagonal").with_updates(**updates)
 run_simulation(m, controller="oracle", timeout_s=0.05)
 """
@@ -42,7 +43,7 @@ run_simulation(m, controller="oracle", timeout_s=0.05)
 def _timed(updates: dict, cache: str) -> float:
     env = {**os.environ, "AUVDOCK_CACHE_DIR": cache, "AUVDOCK_COMPILE": "wait"}
     t0 = time.perf_counter()
-    subprocess.run([sys.executable, "-c", _CHILD, repr(updates)], env=env, check=True)
+    subprocess.run([sys.executable, "-c", _CHILD, json.dumps(updates)], env=env, check=True)
     return time.perf_counter() - t0
 
 
