@@ -35,7 +35,10 @@ def _telemetry(seed: int = 0, steps: int = 200, dt: float = 0.05, **tel):
 
 
 def test_the_telemetry_is_the_docks_displacement_with_the_stated_noise_and_history():
-    steps = _telemetry(std_m=0.05, dropout=0.0, history_s=300.0, rate_hz=10.0, latency_s=0.25)
+    # the white unit (the data sheet's 5 cm taken as white noise): tests/test_dock_motion.py has the mru's
+    steps = _telemetry(
+        motion_unit="white", std_m=0.05, dropout=0.0, history_s=300.0, rate_hz=10.0, latency_s=0.25
+    )
     first = steps[0][1]
     # the record of the last 300 s at 10 Hz arrives at once, less the samples still in transit
     assert len(first) == 3001 - 3

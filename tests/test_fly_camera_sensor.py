@@ -266,6 +266,23 @@ def test_dock_odometry_becomes_dock_motion_readings_on_the_mission_clock() -> No
     assert dock.age_s(19_000 + 250_000) == pytest.approx(0.25)
 
 
+def test_dock_odometry_with_its_rate_becomes_rate_readings_too() -> None:
+    """A data sheet's unit (motion_unit: mru) sends the heave rate in ODOMETRY's vx, vy, vz with its
+    velocity covariance: fly hands it on as sim's dock_motion_rate readings beside the displacement."""
+    from auvdock.fly.dock_telemetry import DockTelemetryIn
+    from auvdock.standins.dock_out import odometry
+
+    settings = load_mission(BASIN).sensors.dock_telemetry.model_copy(update={"history_s": 0.0})
+    dock = DockTelemetryIn(settings)
+    msg = _received(odometry(0.3, np.array([0.0, 0.0, 0.02]), 0.01, np.array([0.0, 0.0, -0.4]), 0.01), 2)
+    dock.feed([(1000, msg)])
+    out = dock.readings(vehicle_time_at_zero_s=0.0)
+    assert [r.kind for r in out] == ["dock_motion", "dock_motion_rate"]
+    assert out[1].t == pytest.approx(0.3) and out[1].value == pytest.approx([0.0, 0.0, -0.4])
+    assert out[1].std == pytest.approx([0.01, 0.01, 0.01])
+    assert out[0].std == pytest.approx([0.01, 0.01, 0.01])
+
+
 @pytest.mark.slow
 def test_fly_forecasts_the_dock_from_its_telemetry_over_mavlink(loop, tmp_path) -> None:
     """basin_regular (waves, the dock's telemetry, the camera alone) with Sequential, which forecasts

@@ -44,8 +44,10 @@ class DockTelemetryIn:
         self.settings = settings
         self.system = int(settings.mavlink_system)
         self.history_s = float(settings.history_s)
-        self._record: deque[tuple[float, np.ndarray, np.ndarray]] = deque()
-        self._new: list[tuple[float, np.ndarray, np.ndarray]] = []
+        self._record: deque[tuple[float, np.ndarray, np.ndarray, np.ndarray | None, np.ndarray | None]] = (
+            deque()
+        )
+        self._new: list[tuple[float, np.ndarray, np.ndarray, np.ndarray | None, np.ndarray | None]] = []
         self._started = False
         self.last_arrival_us: int | None = None
         self.received = 0
@@ -62,7 +64,15 @@ class DockTelemetryIn:
             var = np.array([cov[0], cov[6], cov[11]], dtype=float)
             known = np.all(np.isfinite(var)) and np.all(var > 0)
             std = np.sqrt(var) if known else np.full(3, self.settings.std_m)
-            item = (float(msg.time_usec) * 1e-6, value, std)
+            # the rate, where the unit measures it (a data sheet's unit: motion_unit mru)
+            rate = np.array([msg.vx, msg.vy, msg.vz], dtype=float)
+            rate_std = None
+            if np.all(np.isfinite(rate)):
+                vcov = list(msg.velocity_covariance)
+                vvar = np.array([vcov[0], vcov[6], vcov[11]], dtype=float)
+                good = np.all(np.isfinite(vvar)) and np.all(vvar > 0)
+                rate_std = np.sqrt(vvar) if good else np.full(3, self.settings.rate_noise_m_s)
+            item = (float(msg.time_usec) * 1e-6, value, std, rate if rate_std is not None else None, rate_std)
             self._record.append(item)
             if self._started:  # (before the first step, the record is handed over whole)
                 self._new.append(item)
@@ -94,9 +104,9 @@ class DockTelemetryIn:
         return math.inf if self.last_arrival_us is None else max(0.0, (now_us - self.last_arrival_us) * 1e-6)
 
     def readings(self, vehicle_time_at_zero_s: float) -> list[Reading]:
-        """The new samples as ``dock_motion`` readings on the mission's clock (s: the sample's instant less
-        ``vehicle_time_at_zero_s``, the vehicle's time at the mission's t = 0); at the first call, the last
-        ``history_s`` of the record."""
+        """The new samples as ``dock_motion`` readings (and ``dock_motion_rate`` where the message carries the
+        rate) on the mission's clock (s: the sample's instant less ``vehicle_time_at_zero_s``, the vehicle's
+        time at the mission's t = 0); at the first call, the last ``history_s`` of the record."""
         if not self._started:
             self._started = True
             newest = self._record[-1][0] if self._record else -math.inf
@@ -105,4 +115,9 @@ class DockTelemetryIn:
             items = self._new
         self._new = []
         z = float(vehicle_time_at_zero_s)
-        return [Reading("dock_motion", t - z, v.copy(), s.copy()) for t, v, s in items]
+        out = []
+        for t, v, s, rate, rate_std in items:
+            out.append(Reading("dock_motion", t - z, v.copy(), s.copy()))
+            if rate is not None and rate_std is not None:
+                out.append(Reading("dock_motion_rate", t - z, rate.copy(), rate_std.copy()))
+        return out

@@ -224,9 +224,25 @@ class DockTelemetrySettings(Strict):
     reaches the shore, and the vehicle's topside computer, over the WEC's cable or radio.  With
     ``enabled`` the suite (``estimation: filter``) delivers readings of kind ``dock_motion``: the
     docking point's displacement from its mean (NED, m: heave, and surge and sway where the dock
-    moves so), sampled at ``rate_hz``, with white noise ``std_m`` per axis, ``latency_s`` late, a
-    share ``dropout`` lost; at the start the last ``history_s`` of the record arrive at once (the
-    dock has been sending all along).  The deployable controllers then steer to the dock's motion
+    moves so), sampled at ``rate_hz``, ``latency_s`` late, a share ``dropout`` lost; at the start the
+    last ``history_s`` of the record arrive at once (the dock has been sending all along).  Its errors
+    are the ``motion_unit``'s:
+
+    * ``mru`` (the default): a marine motion reference unit as its data sheet states it.  SBG Systems'
+      Apogee series (hardware manual APOGEEHM.1.5, sec. 2.3.2.1) gives real-time heave to "5 cm or 5 %,
+      whichever is greater" for periods of 0-20 s, computed at 50 Hz by double integration of the
+      accelerometers through an auto-tuned high-pass filter (SBG Systems' knowledge base, "Ship motion
+      measurements"); Kongsberg's MRU 5+ states the same 5 cm or 5 %.  That error is the high-pass
+      filter's gain and phase and the integration's drift: slow, not white.  It is modelled as a
+      first-order Gauss-Markov error of ``heave_error_std_m`` (the data sheet's 5 cm) with a correlation
+      time of ``heave_error_tau_s`` (20 s, the longest period the real-time heave is specified for),
+      plus white noise ``heave_noise_m`` (short-term noise is on no data sheet: 1 cm assumed; a MEMS
+      accelerometer's white noise, double-integrated over a swell period, is millimetres).  The unit
+      also sends the heave rate (SBG's ship-motion velocity output; readings of kind
+      ``dock_motion_rate``, NED m/s) with white noise ``rate_noise_m_s`` (assumed 1 cm/s).
+    * ``white``: the pessimistic variant, the data sheet's 5 cm taken as white noise (``std_m`` per
+      axis, no rate): what the kriging forecaster was designed on.  The deployable controllers then
+      steer to the dock's motion
     forecast from these readings (:class:`auvdock.estimation.dock_knowledge.TelemetryDock`); Oracle
     alone is told the true motion.  Without it every controller is told the dock's motion
     (Assumption 2).  The dock's position is not in the telemetry: the vehicle finds it with its camera
@@ -245,10 +261,35 @@ class DockTelemetrySettings(Strict):
     latency_s: NonNegFloat = Field(
         default=0.25, description="sample to use, s (assumed: the dock's link to shore and on to the topside)"
     )
+    motion_unit: Literal["mru", "white"] = Field(
+        default="mru",
+        description="the motion unit's errors: mru (a data sheet's unit: a slow heave error, small white "
+        "noise, the heave rate too) or white (the pessimistic variant: std_m of white noise, no rate)",
+    )
     std_m: NonNegFloat = Field(
         default=0.05,
-        description="noise of each axis of the displacement, m (a marine motion reference unit's heave: "
-        "5 cm or 5 %, whichever is larger; Kongsberg MRU data sheets)",
+        description="motion_unit white: noise of each axis of the displacement, m (a marine motion reference "
+        "unit's heave accuracy, 5 cm or 5 %, whichever is larger, taken as white noise; SBG Apogee and "
+        "Kongsberg MRU 5+ data sheets)",
+    )
+    heave_error_std_m: NonNegFloat = Field(
+        default=0.05,
+        description="motion_unit mru: std of the slow heave error, m (real-time heave accuracy 5 cm or 5 %: "
+        "SBG Apogee hardware manual APOGEEHM.1.5, sec. 2.3.2.1)",
+    )
+    heave_error_tau_s: PosFloat = Field(
+        default=20.0,
+        description="motion_unit mru: correlation time of the slow heave error, s (the longest period the "
+        "real-time heave is specified for, 20 s: the same manual)",
+    )
+    heave_noise_m: NonNegFloat = Field(
+        default=0.01,
+        description="motion_unit mru: white noise of each axis of the displacement, m (assumed: no data "
+        "sheet states it)",
+    )
+    rate_noise_m_s: NonNegFloat = Field(
+        default=0.01,
+        description="motion_unit mru: white noise of each axis of the heave rate, m/s (assumed)",
     )
     dropout: Annotated[float, Field(ge=0, lt=1)] = Field(
         default=0.02, description="probability that a sample is lost on the link (assumed)"

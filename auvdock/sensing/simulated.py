@@ -23,6 +23,7 @@ import numpy as np
 
 from auvdock.sensing.errors import draw_bias, sensor_errors
 from auvdock.sensing.measurements import measure
+from auvdock.sensing.motion_unit import MotionUnit
 from auvdock.sensing.readings import FlowSensing, Reading, Readings
 from auvdock.sensing.settings import SensorSettings
 from auvdock.vehicle.state import ANG, ATT, ETA, LIN
@@ -155,11 +156,11 @@ class SensorSuite:
         if tel.enabled:
             if dock is None:
                 raise ValueError("sensors.dock_telemetry: the simulated telemetry needs its dock")
-            std = np.full(3, float(tel.std_m))
-            self.telemetry = _Channel("dock_motion", tel.rate_hz, tel.latency_s, std, np.zeros(3))
+            self.telemetry = _Channel("dock_motion", tel.rate_hz, tel.latency_s, np.zeros(3), np.zeros(3))
             self.telemetry_dropout = float(tel.dropout)
             self.telemetry_history_s = float(tel.history_s)
             self.telemetry_rng = np.random.default_rng([int(seed), 16])  # the other sensors' draws unchanged
+            self.motion_unit = MotionUnit(tel, np.random.default_rng([int(seed), 17]))
         self._started = False
 
     def read(
@@ -198,7 +199,6 @@ class SensorSuite:
                 out.append(c.pending.pop(0))
         return out
 
-
     def _read_telemetry(self, t: float) -> list[Reading]:
         """The dock's telemetry delivered at ``t``: its displacement from its mean, sampled where due
         (at the first instant, also the record of the last ``history_s`` before it)."""
@@ -211,10 +211,12 @@ class SensorSuite:
             c.next_sample = t - n * c.period
         while t + 1e-9 >= c.next_sample:
             ts = c.next_sample
-            if self.telemetry_rng.random() >= self.telemetry_dropout:
-                value = np.asarray(self.dock.position(ts), dtype=float) - anchor
-                noise = c.std * self.telemetry_rng.standard_normal(3)
-                c.pending.append(Reading(c.kind, ts, value + noise, c.std.copy()))
+            lost = self.telemetry_rng.random() < self.telemetry_dropout
+            # the unit samples whether or not the link loses the sample (its slow error runs on)
+            value = np.asarray(self.dock.position(ts), dtype=float) - anchor
+            sample = self.motion_unit.sample(ts, value, np.asarray(self.dock.velocity(ts), dtype=float))
+            if not lost:
+                c.pending.extend(sample)
             c.next_sample = ts + c.period
         out = []
         while c.pending and c.pending[0].t + c.latency <= t + 1e-9:
