@@ -210,6 +210,21 @@ class DockForecastSettings(Strict):
         description="consecutive rejected fixes after which the forecaster concludes the dock moved (or "
         "the navigation jumped) and starts again from those fixes (15: 1 s at 15 Hz)",
     )
+    slow_error_std_m: Annotated[float, Field(ge=0)] = Field(
+        default=0.0,
+        description="std of a slow error of the heave fixes (down axis), m: a motion unit's (a first-order "
+        "Gauss-Markov process, sensors.dock_telemetry's heave_error_std_m); its covariance joins the fixes' "
+        "and its spectrum is taken out of the estimate (0: none, white noise only)",
+    )
+    slow_error_tau_s: Annotated[float, Field(gt=0)] = Field(
+        default=20.0, description="correlation time of that slow error, s"
+    )
+    max_rate_points: Annotated[int, Field(ge=0, le=128)] = Field(
+        default=24,
+        description="rate fixes (update_rate: a motion unit's heave rate) a forecast is "
+        "conditioned on at most, "
+        "spread evenly over past_s",
+    )
     min_std_m: Annotated[float, Field(gt=0)] = Field(
         default=1e-3,
         description="floor of a fix's standard deviation, m (1 mm: keeps the solve well conditioned)",
@@ -273,11 +288,13 @@ class _Fit:
         level: np.ndarray,
         slope: np.ndarray,
         t_ref: float,
+        ddcov: np.ndarray | None = None,
     ) -> None:
         self.omega = omega  # (nf,) rad/s
         self.spectrum = spectrum  # (3, nf) m^2 s/rad, one-sided, noise floor removed
         self.cov = cov  # (3, nt) m^2 at lags j * lag_step
         self.dcov = dcov  # (3, nt) m^2/s, d cov / d tau
+        self.ddcov = ddcov  # (3, nt) m^2/s^2, d^2 cov / d tau^2
         self.lag_step = lag_step
         self.level = level  # (3,) m at t_ref
         self.slope = slope  # (3,) m/s
@@ -292,6 +309,23 @@ class _Fit:
         """(n, 3) the level's rate at times t (n,): zero after ``t_hold``."""
         on = (t <= t_hold).astype(float)
         return on[:, None] * self.slope[None, :]
+
+    def lookup2(self, lags: np.ndarray) -> np.ndarray:
+        """c''(lags) of the three axes, (3,) + lags.shape: the derivative of the cubic Hermite interpolant of
+        (c', c'') -- so that a rate's covariance with a rate is the derivative of its covariance with a
+        displacement; zero beyond the span."""
+        assert self.ddcov is not None
+        a = np.abs(lags) / self.lag_step
+        last = self.cov.shape[1] - 1
+        i = np.minimum(a.astype(np.int64), last - 1)
+        s = a - i
+        c0, c1 = self.dcov[:, i], self.dcov[:, i + 1]
+        d0, d1 = self.ddcov[:, i] * self.lag_step, self.ddcov[:, i + 1] * self.lag_step
+        s2 = s * s
+        out = (6.0 * s2 - 6.0 * s) * (c0 - c1) + (3.0 * s2 - 4.0 * s + 1.0) * d0 + (3.0 * s2 - 2.0 * s) * d1
+        out /= self.lag_step  # c'' is even: no sign
+        out[:, a >= last] = 0.0
+        return out
 
     def lookup(self, lags: np.ndarray, derivative: bool = False) -> np.ndarray:
         """c(lags), or its derivative, of the three axes: shape (3,) + lags.shape; zero beyond the span.
@@ -349,9 +383,15 @@ class DockForecaster:
         self._y = np.empty((cap, 3))
         self._r = np.empty((cap, 3))  # variances, m^2
         self._n = 0
+        self._tr = np.empty(cap)  # rate fixes (update_rate): times, values (m/s), variances
+        self._yr = np.empty((cap, 3))
+        self._rr = np.empty((cap, 3))
+        self._nr = 0
         self._fit: _Fit | None = None
         self._t_fit = -math.inf
-        self._solve: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # t_i, alpha, K^-1
+        self._solve: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = (
+            None  # t_i, t_r, alpha, K^-1
+        )
         self._dirty = True  # fixes arrived since the solve
         self._pending: list[tuple[float, np.ndarray, np.ndarray]] = []  # the current run of rejections
         #: Fixes accepted, rejected (outliers, out of order, not finite), and restarts after a run of
@@ -435,6 +475,30 @@ class DockForecaster:
             self._refit()
         return True
 
+    def update_rate(self, t: float, rate_ned: np.ndarray, std: np.ndarray) -> bool:
+        """Add one fix of the dock's rate (a motion unit's heave rate): (3,) NED m/s taken at time
+        t (s), per-axis
+        std (3,) m/s.  The forecast conditions on the newest ``max_rate_points`` of them with the covariances
+        the spectrum implies (a rate's with a displacement ``-c'``, with a rate ``-c''``).  False if rejected
+        (not finite, or not later than the previous rate fix)."""
+        v = np.asarray(rate_ned, dtype=float).reshape(3)
+        sd = np.maximum(np.asarray(std, dtype=float).reshape(3), 1e-4)
+        t = float(t)
+        if not (math.isfinite(t) and np.all(np.isfinite(v)) and np.all(np.isfinite(sd))) or (
+            self._nr and t <= self._tr[self._nr - 1]
+        ):
+            return False
+        if self._nr == self._tr.size:  # keep the newer half
+            h = self._nr // 2
+            self._tr[: self._nr - h] = self._tr[h : self._nr]
+            self._yr[: self._nr - h] = self._yr[h : self._nr]
+            self._rr[: self._nr - h] = self._rr[h : self._nr]
+            self._nr -= h
+        self._tr[self._nr], self._yr[self._nr], self._rr[self._nr] = t, v, sd * sd
+        self._nr += 1
+        self._dirty = True
+        return True
+
     def _restart(self) -> None:
         """Forget everything but the run of rejected fixes and start again from them (the dock, or the
         frame it is measured in, has moved: the old level and fixes no longer apply)."""
@@ -476,6 +540,7 @@ class DockForecaster:
         else:
             f = self._posterior(np.array([t]), velocity=False, fresh=False)
             mean, var = f[0][0], f[1][0] ** 2 + r
+            var = var + self._slow_cov(np.zeros(1))[:, 0]  # the fix carries its slow error too
         d2 = float(np.sum((p - mean) ** 2 / var))
         return d2 <= self.settings.outlier_gate**2
 
@@ -539,10 +604,15 @@ class DockForecaster:
         # so that bins of noise alone vanish instead of leaving their positive part as false motion
         nu = 1.9 * starts.size
         n0 = noise[valid].mean(axis=0) * g / math.pi * (1.0 + st.noise_threshold * math.sqrt(2.0 / nu))
-        S = np.maximum(S - n0[None, :], 0.0)
+        S = S - n0[None, :]
+        dw = math.pi / (L * g)
+        if st.slow_error_std_m > 0.0:  # the fixes' known slow error (heave): its spectrum is not the dock's
+            wgrid = dw * np.arange(S.shape[0])
+            tau_e = st.slow_error_tau_s
+            S[:, 2] -= 2.0 * st.slow_error_std_m**2 * tau_e / math.pi / (1.0 + (wgrid * tau_e) ** 2)
+        S = np.maximum(S, 0.0)
         S[0] = 0.0
         S[-1] = 0.0
-        dw = math.pi / (L * g)
         omega = dw * np.arange(L + 1)
         # covariance and its derivative on a fine lag grid (exact: the band-limited cosine sums); with
         # the segments zero-padded to twice their length it is the mean of their windowed
@@ -554,15 +624,18 @@ class DockForecaster:
         w_full = dw * np.arange(n_fft // 2 + 1)
         cov = np.fft.irfft(X, n_fft, axis=1)
         dcov = np.fft.irfft(1j * w_full[None, :] * X, n_fft, axis=1)
+        d2cov = np.fft.irfft(-(w_full[None, :] ** 2) * X, n_fft, axis=1)
         n_tab = min(int(math.ceil(st.covariance_span_s / lag_step)) + 1, n_fft // 2)
         tau = lag_step * np.arange(n_tab)
         span = min(st.covariance_span_s, tau[-1])
         uu = tau / span
         pz = np.where(uu <= 0.5, 1.0 - 6.0 * uu**2 + 6.0 * uu**3, 2.0 * np.clip(1.0 - uu, 0.0, None) ** 3)
         dpz = np.where(uu <= 0.5, -12.0 * uu + 18.0 * uu**2, -6.0 * np.clip(1.0 - uu, 0.0, None) ** 2) / span
+        d2pz = np.where(uu <= 0.5, -12.0 + 36.0 * uu, 12.0 * np.clip(1.0 - uu, 0.0, None)) / span**2
         c_tab = cov[:, :n_tab] * pz
         dc_tab = dcov[:, :n_tab] * pz + cov[:, :n_tab] * dpz
-        self._fit = _Fit(omega, S.T.copy(), c_tab, dc_tab, lag_step, level, slope, t_end)
+        d2c_tab = d2cov[:, :n_tab] * pz + 2.0 * dcov[:, :n_tab] * dpz + cov[:, :n_tab] * d2pz
+        self._fit = _Fit(omega, S.T.copy(), c_tab, dc_tab, lag_step, level, slope, t_end, d2c_tab)
         self._t_fit = t_end
         self._solve = None
 
@@ -620,23 +693,64 @@ class DockForecaster:
         pick = np.unique(np.clip(np.searchsorted(t[k:kd], target), 0, kd - k - 1)) + k
         return np.concatenate([pick, np.arange(kd, self._n)])
 
-    def _solved(self, fit: _Fit, fresh: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(t_i, alpha, K^-1) of the fixes the forecast is conditioned on.  ``fresh=False`` (the outlier
-        gate) accepts a solve that misses the fixes of the last second."""
+    def _rate_regressors(self) -> np.ndarray:
+        """Indices of the rate fixes the forecast is conditioned on: ``max_rate_points`` spread over the last
+        ``past_s`` before the latest displacement fix, the newest included (none before a fit: the
+        rate needs the
+        spectrum's c'')."""
+        st = self.settings
+        if self._nr == 0 or st.max_rate_points == 0 or self._fit is None or self._fit.ddcov is None:
+            return np.zeros(0, dtype=np.int64)
+        t = self._tr[: self._nr]
+        k = int(np.searchsorted(t, self.last_time_s - st.past_s))
+        n = self._nr - k
+        if n <= st.max_rate_points:
+            return np.arange(k, self._nr)
+        # spread evenly over past_s (what tells a slow error from the heave is the rate's whole record), the
+        # newest always in
+        return np.unique(np.linspace(k, self._nr - 1, st.max_rate_points).round().astype(np.int64))
+
+    def _slow_cov(self, lags: np.ndarray) -> np.ndarray:
+        """The fixes' slow error's covariance at ``lags`` on each axis, (3,) + lags.shape (heave only)."""
+        st = self.settings
+        out = np.zeros((3,) + lags.shape)
+        if st.slow_error_std_m > 0.0:
+            out[2] = st.slow_error_std_m**2 * np.exp(-np.abs(lags) / st.slow_error_tau_s)
+        return out
+
+    def _solved(self, fit: _Fit, fresh: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(t_i, t_r, alpha, K^-1) of the displacement and rate fixes the forecast is conditioned on.
+        ``fresh=False`` (the outlier gate) accepts a solve that misses the fixes of the last second."""
         stale = self._solve is None or (
             self._dirty and (fresh or float(self._solve[0][-1]) < self.last_time_s - 1.0)
         )
         if stale:
             idx = self._regressors()
             ti = self._t[idx]
-            resid = self._y[idx] - fit.level_at(ti, self.last_time_s)  # (m, 3)
-            K = fit.lookup(ti[:, None] - ti[None, :]) + self.settings.level_std_m**2  # (3, m, m)
+            t_hold = self.last_time_s
+            resid = self._y[idx] - fit.level_at(ti, t_hold)  # (m, 3)
+            lv = self.settings.level_std_m**2
+            K = fit.lookup(ti[:, None] - ti[None, :]) + lv + self._slow_cov(ti[:, None] - ti[None, :])
             m = ti.size
             diag = np.arange(m)
             K[:, diag, diag] += self._r[idx].T
+            ridx = self._rate_regressors()
+            tr = self._tr[ridx]
+            if tr.size:
+                mr = tr.size
+                Kf = np.empty((3, m + mr, m + mr))
+                Kf[:, :m, :m] = K
+                Khr = -fit.lookup(ti[:, None] - tr[None, :], derivative=True)  # E[h(t_i) h'(t_r)] = -c'
+                Kf[:, :m, m:] = Khr
+                Kf[:, m:, :m] = np.transpose(Khr, (0, 2, 1))
+                Kf[:, m:, m:] = -fit.lookup2(tr[:, None] - tr[None, :])
+                dr = m + np.arange(mr)
+                Kf[:, dr, dr] += self._rr[ridx].T
+                K = Kf
+                resid = np.concatenate([resid, self._yr[ridx] - fit.slope_at(tr, t_hold)], axis=0)
             Kinv = np.linalg.inv(K)
-            alpha = np.einsum("aij,ja->ai", Kinv, resid)  # (3, m)
-            self._solve = (ti, alpha, Kinv)
+            alpha = np.einsum("aij,ja->ai", Kinv, resid)  # (3, m + mr)
+            self._solve = (ti, tr, alpha, Kinv)
             self._dirty = False
         assert self._solve is not None
         return self._solve
@@ -647,10 +761,13 @@ class DockForecaster:
         """Mean (n, 3), std (n, 3) and (optionally) velocity (n, 3) at times (n,)."""
         fit = self._fit
         assert fit is not None
-        ti, alpha, Kinv = self._solved(fit, fresh)
+        ti, tr, alpha, Kinv = self._solved(fit, fresh)
         t_hold = self.last_time_s
         lags = times[:, None] - ti[None, :]  # (n, m)
         k = fit.lookup(lags) + self.settings.level_std_m**2  # (3, n, m)
+        if tr.size:
+            lags_r = times[:, None] - tr[None, :]
+            k = np.concatenate([k, -fit.lookup(lags_r, derivative=True)], axis=2)
         mean = fit.level_at(times, t_hold) + np.einsum("anm,am->na", k, alpha)
         Kk = np.einsum("aij,anj->ani", Kinv, k)
         var = fit.cov[:, 0][None, :] + self.settings.level_std_m**2 - np.einsum("ani,ani->na", k, Kk)
@@ -658,6 +775,8 @@ class DockForecaster:
         vel = None
         if velocity:
             dk = fit.lookup(lags, derivative=True)
+            if tr.size:
+                dk = np.concatenate([dk, -fit.lookup2(lags_r)], axis=2)
             vel = fit.slope_at(times, t_hold) + np.einsum("anm,am->na", dk, alpha)
         return mean, std, vel
 

@@ -13,12 +13,27 @@ so).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from auvdock.estimation.dock_forecast import DockForecaster, DockForecastSettings
 from auvdock.world.dock import DockMotion, TranslatingDock
 
-__all__ = ["TelemetryDock"]
+if TYPE_CHECKING:
+    from auvdock.sensing.settings import DockTelemetrySettings
+
+__all__ = ["TelemetryDock", "forecast_settings"]
+
+
+def forecast_settings(unit: DockTelemetrySettings | None) -> DockForecastSettings:
+    """The forecaster's settings for a dock's motion unit: its slow heave error as a known covariance (a data
+    sheet's unit, ``motion_unit: mru``); the defaults otherwise."""
+    if unit is None or unit.motion_unit != "mru":
+        return DockForecastSettings()
+    return DockForecastSettings(
+        slow_error_std_m=unit.heave_error_std_m, slow_error_tau_s=unit.heave_error_tau_s
+    )
 
 
 class TelemetryDock(TranslatingDock):
@@ -58,6 +73,11 @@ class TelemetryDock(TranslatingDock):
         its noise std (3,) m.  False if the forecaster rejected it (an outlier, or not later than the
         previous sample)."""
         return self.forecaster.update(t, np.asarray(displacement_ned_m, dtype=float), std_m)
+
+    def update_rate(self, t: float, rate_ned_m_s: np.ndarray, std_m_s: np.ndarray) -> bool:
+        """Add one rate sample of the telemetry (a data sheet's unit sends the heave rate): (3,) NED m/s at
+        time ``t`` (s), its noise std (3,) m/s.  False if the forecaster rejected it."""
+        return self.forecaster.update_rate(t, np.asarray(rate_ned_m_s, dtype=float), std_m_s)
 
     def forecast(self, t: float | np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Position (NED, m), velocity (m/s) and std (m) at time(s) ``t`` (s), each shape ``t.shape + (3,)``,
