@@ -12,9 +12,27 @@ from auvdock.estimation.water_ahead import WaterAhead
 from auvdock.sensing.readings import FlowSensing
 
 if TYPE_CHECKING:
+    from auvdock.estimation.navigation_filter import DockErrorModel
     from auvdock.estimation.wave_model import WaveModel
 
-__all__ = ["Estimate"]
+__all__ = ["Estimate", "HeaveError"]
+
+
+@dataclass(frozen=True)
+class HeaveError:
+    """The docking point's heave beyond the motion forecast from the dock's telemetry, as the
+    navigation filter
+    estimates it at ``t`` (s): ``state`` (2,) the error (down, m) and its rate (m/s), run forward on ``model``
+    (:class:`auvdock.estimation.navigation_filter.DockErrorModel`: it decays back to the forecast)."""
+
+    t: float
+    state: np.ndarray
+    model: DockErrorModel
+
+    def ahead(self, times: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The expected error (m, down) and its rate (m/s) at absolute ``times`` (s), each ``times.shape``
+        (the estimate itself at times before ``t``)."""
+        return self.model.ahead(self.state, np.asarray(times, dtype=float) - self.t)
 
 
 @dataclass
@@ -68,6 +86,9 @@ class Estimate:
         Its rate of change, m/s^2 (the filter's second oscillator state), with a wave model.
     wave_model : WaveModel or None
         The filter's wave oscillators (frequency, damping), with a wave model.
+    dock_heave_error : HeaveError or None
+        The docking point's heave beyond the forecast dock's (:class:`HeaveError`), where the navigation
+        filter estimates it (``navigation.dock_heave_error``); ``dock_position_ned`` includes it.
     """
 
     t: float
@@ -84,6 +105,7 @@ class Estimate:
     wave_velocity_ned: np.ndarray | None = None
     wave_accel_ned: np.ndarray | None = None
     wave_model: WaveModel | None = None
+    dock_heave_error: HeaveError | None = None
 
     def water_ahead(self, current_ned: np.ndarray, offsets_s: np.ndarray) -> WaterAhead:
         """The water a controller's prediction meets at its stages' starts ``offsets_s`` (N,) s from now:

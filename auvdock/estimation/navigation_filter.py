@@ -94,6 +94,8 @@ __all__ = [
     "WAVE_VELOCITY",
     "WAVE_ACCEL",
     "NZ_WAVES",
+    "DOCK_ERROR_STATES",
+    "DockErrorModel",
     "DockMotionOffset",
 ]
 
@@ -111,10 +113,67 @@ WAVE_VELOCITY = slice(NX + 11, NX + 14)
 WAVE_ACCEL = slice(NX + 14, NX + 17)
 #: Filter state dimension with a wave model.
 NZ_WAVES = NX + 17
+#: With the dock's heave error (:class:`DockErrorModel`) the state ends with three more: the docking point's
+#: heave beyond the motion the filter is given (down, m), its rate (m/s), and the slow part of that error (m:
+#: the dock's motion unit's slow heave error, which the forecast from its record carries).
+DOCK_ERROR_STATES = 3
 _CURRENT, _BIAS_A, _BIAS_G = CURRENT, BIAS_A, BIAS_G
 
 #: The dock's known motion about its anchor: ``t (s) -> (offset (3,), velocity (3,))``, NED m and m/s.
 DockMotionOffset = Callable[[float], tuple[np.ndarray, np.ndarray]]
+
+
+@dataclass
+class DockErrorModel:
+    """The dock's heave beyond the motion the filter is given (a forecast from the dock's telemetry): a
+    damped oscillator driven by white acceleration, of stationary standard deviation ``std_m`` (what the
+    forecast leaves unknown now; :meth:`NavigationFilter.set_dock_error_std` follows it), natural frequency
+    ``omega_rad_s`` (the sea's) and damping ratio ``damping``; plus a slow part, a first-order Gauss-Markov
+    process of standard deviation ``slow_std_m`` and correlation time ``slow_tau_s`` (the motion unit's slow
+    heave error, which the forecast from its record carries: data sheet figures,
+    :class:`auvdock.sensing.settings.DockTelemetrySettings`; zero for a unit without one).  With it the
+    camera's fixes of the docking point correct the forecast at the wave's own time scale and hold its slow
+    offset: near the dock its relative position and velocity come from the camera, not from the forecast
+    (issue 40)."""
+
+    omega_rad_s: float
+    damping: float
+    std_m: float
+    slow_std_m: float = 0.0
+    slow_tau_s: float = 20.0
+
+    def slow_density(self) -> float:
+        """The slow part's driving noise intensity, m^2/s (``2 std^2 / tau``)."""
+        return 2.0 * self.slow_std_m**2 / self.slow_tau_s
+
+    def accel_density(self) -> float:
+        """The driving acceleration's intensity, m^2/s^3: ``4 zeta omega^3 std^2`` (the stationary variance
+        ``std^2``)."""
+        return 4.0 * self.damping * self.omega_rad_s**3 * self.std_m**2
+
+    def transition(self, tau: float | np.ndarray) -> np.ndarray:
+        """(..., 2, 2): the oscillator's exact transition over ``tau`` s (its mean run forward, or back for a
+        negative ``tau``; underdamped)."""
+        w, z = self.omega_rad_s, self.damping
+        sig, wd = z * w, w * math.sqrt(max(1.0 - z * z, 1e-9))
+        t = np.asarray(tau, dtype=float)
+        e, c, sn = np.exp(-sig * t), np.cos(wd * t), np.sin(wd * t)
+        out = np.empty(t.shape + (2, 2))
+        out[..., 0, 0] = e * (c + sig / wd * sn)
+        out[..., 0, 1] = e * sn / wd
+        out[..., 1, 0] = -e * w * w / wd * sn
+        out[..., 1, 1] = e * (c - sig / wd * sn)
+        return out
+
+    def ahead(self, state: np.ndarray, tau: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The expected heave error (the oscillator's and the slow part's) and its rate (each ``tau.shape``;
+        m, m/s) ``tau`` s after ``state`` (3,: the oscillator's displacement and rate, the slow part)."""
+        tt = np.maximum(np.asarray(tau, dtype=float), 0.0)
+        st = np.asarray(state, dtype=float)
+        x = self.transition(tt) @ st[0:2]
+        slow = st[2] * np.exp(-tt / self.slow_tau_s)
+        return x[..., 0] + slow, x[..., 1] - slow / self.slow_tau_s
+
 
 # Row offsets of each kind in the stacked measurement vector.
 _OFFSETS: dict[str, int] = {}
@@ -202,7 +261,10 @@ class NavEstimate:
     anchor (NED, m) and ``dock_cov`` (3, 3); ``relative_cov`` (3, 3) the covariance of the
     vehicle's position relative to the dock (m^2), what the camera's fixes shrink;
     ``wave_velocity_ned`` (3,) the water's wave-frequency velocity at the vehicle (NED, m/s), its
-    rate ``wave_accel_ned`` (3,, m/s^2) and ``wave_cov`` (3, 3), with a wave model (else None).
+    rate ``wave_accel_ned`` (3,, m/s^2) and ``wave_cov`` (3, 3), with a wave model (else None);
+    ``dock_heave_error`` (3,) the docking point's heave beyond the motion the filter is given, its
+    rate and its slow part (down, m, m/s, m) and ``dock_heave_error_cov`` (3, 3), with a
+    :class:`DockErrorModel`.
     """
 
     t: float
@@ -218,6 +280,8 @@ class NavEstimate:
     wave_velocity_ned: np.ndarray | None = None
     wave_accel_ned: np.ndarray | None = None
     wave_cov: np.ndarray | None = None
+    dock_heave_error: np.ndarray | None = None
+    dock_heave_error_cov: np.ndarray | None = None
 
 
 def _second_order_covariance(f: ca.SX, z: ca.SX, P: ca.SX, h: float | ca.SX, n: int) -> ca.SX:
@@ -248,7 +312,7 @@ def _second_order_covariance(f: ca.SX, z: ca.SX, P: ca.SX, h: float | ca.SX, n: 
 
 # per vehicle, (substeps, second order, camera mount, waves) -> its three functions: building them takes
 # about 0.2 s, and a vehicle's filters share them (a filter evaluates them on buffers of its own)
-_Key = tuple[int, bool, tuple[float, ...], bool]
+_Key = tuple[int, bool, tuple[float, ...], bool, bool]
 _FUNCTIONS: weakref.WeakKeyDictionary[Vehicle, dict[_Key, tuple[ca.Function, ...]]]
 _FUNCTIONS = weakref.WeakKeyDictionary()
 
@@ -270,14 +334,15 @@ def _step_functions(
     second_order: bool,
     mount: tuple[np.ndarray, np.ndarray],
     waves: bool = False,
+    dock_error: bool = False,
 ) -> tuple[ca.Function, ...]:
     """:func:`_step_function`, built once per vehicle and settings."""
     per_vehicle = _FUNCTIONS.setdefault(vehicle, {})
     R_bc, t_bc = (np.asarray(a, dtype=float) for a in mount)
     mount_key = tuple(R_bc.ravel().tolist() + t_bc.ravel().tolist())
-    key = (int(substeps), bool(second_order), mount_key, bool(waves))
+    key = (int(substeps), bool(second_order), mount_key, bool(waves), bool(dock_error))
     if key not in per_vehicle:
-        per_vehicle[key] = _step_function(vehicle, key[0], key[1], (R_bc, t_bc), key[3])
+        per_vehicle[key] = _step_function(vehicle, key[0], key[1], (R_bc, t_bc), key[3], key[4])
     return per_vehicle[key]
 
 
@@ -287,21 +352,25 @@ def _step_function(
     second_order: bool = True,
     mount: tuple[np.ndarray, np.ndarray] | None = None,
     waves: bool = False,
+    dock_error: bool = False,
 ) -> tuple[ca.Function, ca.Function, ca.Function]:
     """The measurement model ``(z, u, m) -> (y_all, H_all)``, its second-order covariance
-    ``(z, u, P, m) -> (NY x NY)`` and the step ``(z[nz], P[nz x nz], u[n], h, qd[nz], m[3], wave[2]) ->
+    ``(z, u, P, m) -> (NY x NY)`` and the step ``(z[nz], P[nz x nz], u[n], h, qd[nz], m[3], wave[5]) ->
     (z_next, P_next, y_all(z_next), H_all(z_next))``; ``m`` is the dock's offset from its anchor at
     the measurement's time (NED, m), ``mount = (R_bc, t_bc)`` the camera's (kind ``dock``) and
-    ``wave = (omega, zeta)`` the wave oscillators' (with ``waves``: ``nz = NZ_WAVES``, else ``NZ``)."""
+    ``wave = (omega, zeta, omega_e, zeta_e, 1 / tau_e)`` the wave oscillators' (with ``waves``: ``nz =
+    NZ_WAVES``, else ``NZ``) and the dock's heave error's (with ``dock_error``: :data:`DOCK_ERROR_STATES` more
+    states, the docking point's heave beyond ``m``, its rate and its slow part)."""
     m = vehicle.model
-    nz = NZ_WAVES if waves else NZ
+    nz0 = NZ_WAVES if waves else NZ
+    nz = nz0 + (DOCK_ERROR_STATES if dock_error else 0)
     z = ca.SX.sym("z", nz)
     P = ca.SX.sym("P", nz, nz)
     u = ca.SX.sym("u", vehicle.n_thrusters)
     h = ca.SX.sym("h")
     qd = ca.SX.sym("qd", nz)
     motion = ca.SX.sym("dock_motion", 3)
-    wave = ca.SX.sym("wave", 2)
+    wave = ca.SX.sym("wave", 5)
     if mount is None:
         from auvdock.camera.model import CameraMount
 
@@ -318,11 +387,14 @@ def _step_function(
     def zdot(zz: ca.SX) -> ca.SX:
         vc, vc_dot, a_w = water(zz)
         xdot = m.dynamics(zz[0:NX], u, vc, vc_dot, water_accel_ned=a_w)
-        if not waves:
-            return ca.vertcat(xdot, ca.SX.zeros(NZ - NX))
-        w, a = zz[WAVE_VELOCITY], zz[WAVE_ACCEL]
-        osc = -(wave[0] ** 2) * w - 2.0 * wave[1] * wave[0] * a
-        return ca.vertcat(xdot, ca.SX.zeros(NZ - NX), a, osc)
+        parts = [xdot, ca.SX.zeros(NZ - NX)]
+        if waves:
+            w, a = zz[WAVE_VELOCITY], zz[WAVE_ACCEL]
+            parts += [a, -(wave[0] ** 2) * w - 2.0 * wave[1] * wave[0] * a]
+        if dock_error:
+            e, ed, slow = zz[nz0], zz[nz0 + 1], zz[nz0 + 2]
+            parts += [ed, -(wave[2] ** 2) * e - 2.0 * wave[3] * wave[2] * ed, -slow * wave[4]]
+        return ca.vertcat(*parts)
 
     z_next = rk4(zdot, z, h, substeps)
     F = ca.jacobian(z_next, z)
@@ -334,7 +406,8 @@ def _step_function(
     zs = ca.SX.sym("zs", nz)
     vc, vc_dot, a_w = water(zs)
     bias = {"accel": zs[_BIAS_A], "gyro": zs[_BIAS_G]}
-    dock = (zs[DOCK] + motion, mount[0], mount[1])
+    heave_error = ca.vertcat(0, 0, zs[nz0] + zs[nz0 + 2]) if dock_error else ca.DM.zeros(3)
+    dock = (zs[DOCK] + motion + heave_error, mount[0], mount[1])
     y = ca.vertcat(
         *(
             measurements.expression(k, m, zs[0:NX], u, vc, None, vc_dot, a_w) + bias[k]
@@ -343,7 +416,7 @@ def _step_function(
             for k in measurements.KINDS
         )
     )
-    suffix = "_waves" if waves else ""
+    suffix = ("_waves" if waves else "") + ("_dock_error" if dock_error else "")
     meas = ca.Function("nav_meas" + suffix, [zs, u, motion], [ca.densify(y), ca.densify(ca.jacobian(y, zs))])
     Ps = ca.SX.sym("Ps", nz, nz)
     # only the curved rows' (the accelerometer's) second-order term is used: the others are zero here
@@ -398,6 +471,7 @@ class NavigationFilter:
         camera_mount: tuple[np.ndarray, np.ndarray] | None = None,
         dock_motion: DockMotionOffset | None = None,
         waves: WaveModel | None = None,
+        dock_error: DockErrorModel | None = None,
     ) -> None:
         if not dt > 0:
             raise ValueError(f"dt must be > 0, got {dt}")
@@ -413,8 +487,13 @@ class NavigationFilter:
         zero3 = np.zeros(3)
         self.dock_motion: DockMotionOffset = dock_motion or (lambda t: (zero3, zero3))
         self.waves = waves
-        #: The filter state's dimension: :data:`NZ`, or :data:`NZ_WAVES` with a wave model.
-        self.nz = nz = NZ_WAVES if waves is not None else NZ
+        self.dock_error = dock_error
+        nz0 = NZ_WAVES if waves is not None else NZ
+        #: Index of the dock's heave error (and its rate next) in the state, with a :class:`DockErrorModel`.
+        self.dock_error_index = nz0 if dock_error is not None else None
+        #: The filter state's dimension: :data:`NZ`, or :data:`NZ_WAVES` with a wave model, plus
+        #: :data:`DOCK_ERROR_STATES` with the dock's heave error.
+        self.nz = nz = nz0 + (DOCK_ERROR_STATES if dock_error is not None else 0)
 
         def build() -> tuple[ca.Function, str, ca.Function, ca.Function]:
             meas, curv, fn = _step_functions(
@@ -423,6 +502,7 @@ class NavigationFilter:
                 settings.second_order_prediction,
                 (self._R_bc, self._t_bc),
                 waves is not None,
+                dock_error is not None,
             )
             step, how = compiled_function(fn)
             return step, how, compiled_function(meas)[0], compiled_function(curv)[0]
@@ -433,16 +513,22 @@ class NavigationFilter:
             self._R_bc,
             self._t_bc,
             waves is not None,
+            dock_error is not None,
         )
         self._fn, self.build, self._meas, curv = vehicle.built("navigation_filter", defining, build)
         assert all(self._fn.sparsity_out(i).is_dense() for i in range(4))
         self._qd = process_density(settings)
-        self._in_wave = np.array([1.0, 0.5])
+        self._in_wave = np.array([1.0, 0.5, 1.0, 0.5, 0.0])
         if waves is not None:
             q_wave = np.zeros(6)
             q_wave[3:6] = waves.accel_density() ** 2
             self._qd = np.concatenate([self._qd, q_wave])
-            self._in_wave[:] = (waves.omega_rad_s, waves.damping_ratio)
+            self._in_wave[0:2] = (waves.omega_rad_s, waves.damping_ratio)
+        if dock_error is not None:
+            self._qd = np.concatenate(
+                [self._qd, [0.0, dock_error.accel_density(), dock_error.slow_density()]]
+            )
+            self._in_wave[2:5] = (dock_error.omega_rad_s, dock_error.damping, 1.0 / dock_error.slow_tau_s)
         # zero-copy evaluation into preallocated arrays (BufferedFunction)
         self._in_z = np.zeros(nz)
         self._in_P = np.zeros((nz, nz))
@@ -531,6 +617,9 @@ class NavigationFilter:
         if self.waves is not None:  # the oscillators start at their stationary spread
             w_std = np.asarray(self.waves.velocity_std_m_s, dtype=float)
             extra = np.concatenate([extra, w_std, self.waves.omega_rad_s * w_std])
+        if self.dock_error is not None:  # so does the dock's heave error
+            e = self.dock_error
+            extra = np.concatenate([extra, [e.std_m, e.omega_rad_s * e.std_m, e.slow_std_m]])
         self.P = np.diag(np.concatenate([std, extra]) ** 2)
         self.t = None
 
@@ -541,6 +630,18 @@ class NavigationFilter:
         flow_cov = np.zeros((3, 3))
         flow_cov[0:2, 0:2] = self.P[_CURRENT, _CURRENT]
         Ppp, Pdd, Ppd = self.P[POS, POS], self.P[DOCK, DOCK], self.P[POS, DOCK]
+        relative_cov = Ppp + Pdd - Ppd - Ppd.T
+        heave_error = heave_error_cov = None
+        if self.dock_error_index is not None:  # the docking point: the anchor and the heave error
+            i = self.dock_error_index
+            J = np.zeros((3, self.nz))
+            J[:, POS] = np.eye(3)
+            J[:, DOCK] = -np.eye(3)
+            J[2, i] = -1.0
+            J[2, i + 2] = -1.0
+            relative_cov = J @ self.P @ J.T
+            heave_error = self.z[i : i + DOCK_ERROR_STATES].copy()
+            heave_error_cov = self.P[i : i + DOCK_ERROR_STATES, i : i + DOCK_ERROR_STATES].copy()
         return NavEstimate(
             t=float(self.t) if self.t is not None else 0.0,
             state=self.z[0:NX].copy(),
@@ -551,11 +652,23 @@ class NavigationFilter:
             n_meas=int(n_meas),
             dock_anchor_ned=self.z[DOCK].copy(),
             dock_cov=Pdd.copy(),
-            relative_cov=Ppp + Pdd - Ppd - Ppd.T,
+            relative_cov=relative_cov,
             wave_velocity_ned=None if self.waves is None else self.z[WAVE_VELOCITY].copy(),
             wave_accel_ned=None if self.waves is None else self.z[WAVE_ACCEL].copy(),
             wave_cov=None if self.waves is None else self.P[WAVE_VELOCITY, WAVE_VELOCITY].copy(),
+            dock_heave_error=heave_error,
+            dock_heave_error_cov=heave_error_cov,
         )
+
+    def set_dock_error_std(self, std_m: float) -> None:
+        """What the dock's motion as given leaves unknown now (m, the heave's): the heave error's process
+        noise follows it (:class:`DockErrorModel`)."""
+        if self.dock_error is None or self.dock_error_index is None:
+            raise ValueError("this filter has no dock heave error (dock_error)")
+        if not (math.isfinite(std_m) and std_m >= 0.0):
+            raise ValueError(f"the dock heave error's std must be finite and >= 0, got {std_m}")
+        self.dock_error.std_m = float(std_m)
+        self._qd[self.dock_error_index + 1] = self.dock_error.accel_density()
 
     # --- one step ------------------------------------------------------------------------
     def _evaluate(self, h: float, t_end: float) -> None:
@@ -770,7 +883,10 @@ class NavigationFilter:
         if r.kind == "dock":
             _, v_dock = self.dock_motion(float(r.t))
             lever = self._R_bc @ value + self._t_bc  # the dock from the body origin, in {b}
-            rate_b = R.T @ np.asarray(v_dock, dtype=float) - self.z[LIN] - np.cross(self.z[ANG], lever)
+            v_dock = np.array(v_dock, dtype=float)
+            if self.dock_error_index is not None:
+                v_dock[2] += self.z[self.dock_error_index + 1]
+            rate_b = R.T @ v_dock - self.z[LIN] - np.cross(self.z[ANG], lever)
             return value + age * (self._R_bc.T @ rate_b)
         v_ned = R @ self.z[LIN]
         return value + age * (v_ned if r.kind == "position" else v_ned[2:3])

@@ -110,6 +110,21 @@ class NavigationSettings(Strict):
         lt=1.0,
         description="relative damping of the wave oscillators (Fossen 2011, 8.2: 0.05-0.1)",
     )
+    dock_heave_error: Literal["auto", "off"] = Field(
+        default="auto",
+        description="auto: where the dock's motion is forecast from its telemetry (sensors.dock_telemetry), "
+        "the filter also estimates the docking point's heave beyond that forecast and its rate (a damped "
+        "oscillator at the heave's mean frequency, as large as the forecast's own uncertainty now), so that "
+        "the camera's fixes and the motion unit's heave rate correct the forecast at the wave's time scale; "
+        "off: the forecast is taken as the dock's motion (the anchor alone is estimated)",
+    )
+    dock_heave_error_damping: float = Field(
+        default=0.5,
+        gt=0.0,
+        lt=1.0,
+        description="relative damping of the dock's heave error oscillator (0.5: a broad band about the "
+        "heave's mean frequency; the forecast's error has no one period)",
+    )
     settle_s: float = Field(
         default=2.0,
         ge=0.0,

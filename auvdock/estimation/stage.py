@@ -44,8 +44,8 @@ import casadi as ca
 import numpy as np
 
 from auvdock.estimation.delay import ThrustSchedule, mean_thrust
-from auvdock.estimation.estimate import Estimate
-from auvdock.estimation.navigation_filter import NavEstimate, NavigationFilter
+from auvdock.estimation.estimate import Estimate, HeaveError
+from auvdock.estimation.navigation_filter import DockErrorModel, NavEstimate, NavigationFilter
 from auvdock.estimation.settings import FORECAST_HORIZONS_S, NavigationSettings
 from auvdock.estimation.wave_model import WaveModel
 from auvdock.sensing.readings import FlowSensing, Readings
@@ -54,6 +54,7 @@ from auvdock.vehicle.state import ANG, ATT, ETA, LIN, NX
 
 if TYPE_CHECKING:
     from auvdock.estimation.dock_knowledge import TelemetryDock
+    from auvdock.sensing.settings import DockTelemetrySettings
     from auvdock.vehicle import Vehicle
     from auvdock.world.dock import DockMotion
 
@@ -71,6 +72,10 @@ __all__ = [
 
 #: ``estimation:`` values.
 ESTIMATION_MODES = ("truth", "filter")
+
+#: The dock's heave error's frequency until the forecaster has estimated the heave's spectrum, rad/s
+#: (an 8 s swell's).
+_DEFAULT_HEAVE_OMEGA = 2.0 * math.pi / 8.0
 
 #: What the filter stage records per step: name -> per-row shape.
 ESTIMATION_SERIES: dict[str, tuple[int, ...]] = {
@@ -186,6 +191,9 @@ class NavigationStage:
     waves : WaveModel, optional
         The water's wave-frequency motion, as the filter models it
         (:func:`auvdock.loop.assemble.filter_wave_model`); None: a current only.
+    telemetry_unit : DockTelemetrySettings, optional
+        The dock's motion unit (``sensors.dock_telemetry``): its slow heave error, which the forecast from its
+        record carries, is a state of the filter's heave error (:class:`DockErrorModel`).
     """
 
     mode = "filter"
@@ -202,6 +210,7 @@ class NavigationStage:
         camera_mount: tuple[np.ndarray, np.ndarray] | None = None,
         telemetry: TelemetryDock | None = None,
         waves: WaveModel | None = None,
+        telemetry_unit: DockTelemetrySettings | None = None,
     ) -> None:
         if telemetry is not None and dock is not telemetry:
             raise ValueError("the telemetry's forecast dock must be the stage's dock")
@@ -214,15 +223,41 @@ class NavigationStage:
         self.dock = dock
         self.dock_anchor = np.zeros(3) if dock is None else np.asarray(dock.position_ned_m, dtype=float)
         motion = None
-        if dock is not None:
+        #: The forecast's std of the heave (m) at the last time the filter asked for the dock's motion.
+        self._forecast_std = math.inf
+        if telemetry is not None:
             anchor = self.dock_anchor
 
             def motion(t: float) -> tuple[np.ndarray, np.ndarray]:
-                _, p, v = dock.trajectory(t, 0.0, 0)  # one evaluation for both (a forecast dock's: one solve)
+                p, v, sd = telemetry.forecast(t)  # one solve for all three
+                self._forecast_std = float(sd[2])
+                return np.asarray(p, dtype=float) - anchor, np.asarray(v, dtype=float)
+
+        elif dock is not None:
+            anchor = self.dock_anchor
+
+            def motion(t: float) -> tuple[np.ndarray, np.ndarray]:
+                _, p, v = dock.trajectory(t, 0.0, 0)  # one evaluation for both
                 return np.asarray(p[0], dtype=float) - anchor, np.asarray(v[0], dtype=float)
 
+        # where the dock's motion is a forecast, the filter also carries what the forecast leaves unknown
+        error = None
+        if telemetry is not None and settings.dock_heave_error == "auto":
+            slow = 0.0
+            tau = 20.0
+            if telemetry_unit is not None and telemetry_unit.motion_unit == "mru":
+                slow, tau = telemetry_unit.heave_error_std_m, telemetry_unit.heave_error_tau_s
+            error = DockErrorModel(
+                _DEFAULT_HEAVE_OMEGA, settings.dock_heave_error_damping, settings.prior_dock_std_m, slow, tau
+            )
         self.filter = NavigationFilter(
-            settings, vehicle, dt, camera_mount=camera_mount, dock_motion=motion, waves=waves
+            settings,
+            vehicle,
+            dt,
+            camera_mount=camera_mount,
+            dock_motion=motion,
+            waves=waves,
+            dock_error=error,
         )
         self.settle_s = float(settings.settle_s)
         self.dt = float(dt)
@@ -248,9 +283,37 @@ class NavigationStage:
         if self.telemetry is not None:
             self.telemetry.reset()
         self._prev: tuple[np.ndarray, np.ndarray] | None = None
+        self._forecast_std = math.inf
+        self._heave_omega_set = False
+        if self.filter.dock_error is not None:
+            self.filter.dock_error.omega_rad_s = _DEFAULT_HEAVE_OMEGA
+            self.filter._in_wave[2] = _DEFAULT_HEAVE_OMEGA
         self.last: NavEstimate | None = None
         self._t0: float | None = None
         self.dock_fix_t: float | None = None
+
+    def _follow_forecast(self, t: float) -> None:
+        """The dock's heave error follows the forecast: as large as what it left unknown at the previous
+        step (its std; the climatology's before it has learnt the sea), at the heave's mean frequency once the
+        forecaster has estimated its spectrum."""
+        assert self.telemetry is not None
+        f = self.telemetry.forecaster
+        std = self._forecast_std
+        if not math.isfinite(std):
+            sig = float(f.signal_std_m[2]) if f.n_measurements > 1 else math.nan
+            std = sig if math.isfinite(sig) else self.filter.settings.prior_dock_std_m
+        self.filter.set_dock_error_std(std)
+        spectrum = f.spectrum
+        if not self._heave_omega_set and spectrum is not None:
+            omega, S = spectrum
+            m0 = float(np.sum(S[2]))
+            if m0 > 0.0:
+                w = float(np.sum(omega * S[2]) / m0)
+                assert self.filter.dock_error is not None
+                self.filter.dock_error.omega_rad_s = w
+                self.filter._in_wave[2] = w
+                self.filter.set_dock_error_std(std)
+                self._heave_omega_set = True
 
     def settling(self, t: float) -> bool:
         """Whether the controllers should still hold zero thrust at time ``t`` (s): the filter
@@ -270,9 +333,16 @@ class NavigationStage:
                 if self.telemetry is not None:
                     self.telemetry.update(r.t, r.value, r.std)
                 continue
+            if r.kind == "dock_motion_rate":  # the motion unit's heave rate: the forecaster's too
+                if self.telemetry is not None:
+                    self.telemetry.update_rate(r.t, r.value, r.std)
+                continue
             if r.kind == "dock":
                 self.dock_fix_t = max(float(r.t), self.dock_fix_t or -math.inf)
             navigation.append(r)
+        error = self.filter.dock_error
+        if error is not None:
+            self._follow_forecast(float(readings.t))
         est = self.filter.step(readings.t, navigation, u_applied)
         self.last = est
         x = np.asarray(est.state, dtype=float)
@@ -304,6 +374,10 @@ class NavigationStage:
         lam = float(np.max(np.linalg.eigvalsh(est.flow_cov[0:2, 0:2])))
         share = min(1.0, math.sqrt(max(lam, 0.0)) / self.filter.settings.prior_current_std_m_s)
         dock_now = (np.zeros(3) if self.dock is None else np.asarray(self.dock.position(readings.t))) + offset
+        heave_error = None
+        if est.dock_heave_error is not None and self.filter.dock_error is not None:
+            heave_error = HeaveError(float(readings.t), est.dock_heave_error.copy(), self.filter.dock_error)
+            dock_now[2] += float(est.dock_heave_error[0])
         out = Estimate(
             readings.t,
             x.copy(),
@@ -319,6 +393,7 @@ class NavigationStage:
             wave_velocity_ned=None if est.wave_velocity_ned is None else est.wave_velocity_ned.copy(),
             wave_accel_ned=None if est.wave_accel_ned is None else est.wave_accel_ned.copy(),
             wave_model=self.filter.waves,
+            dock_heave_error=heave_error,
         )
         series = {
             "estimated_state": x.copy(),
@@ -335,5 +410,7 @@ class NavigationStage:
             ahead = readings.t + np.asarray(FORECAST_HORIZONS_S)
             position, _, std = self.telemetry.forecast(ahead)
             series["dock_forecast_m"] = position + offset
+            if heave_error is not None:
+                series["dock_forecast_m"][:, 2] += heave_error.ahead(ahead)[0]
             series["dock_forecast_std_m"] = std
         return out, series

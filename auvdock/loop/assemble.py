@@ -21,7 +21,7 @@ from auvdock.controllers.entry import EntryCorridor
 from auvdock.controllers.hold import DepthAttitudeHold
 from auvdock.controllers.registry import CONTROLLERS
 from auvdock.controllers.world import ControllerWorld
-from auvdock.estimation.dock_knowledge import TelemetryDock
+from auvdock.estimation.dock_knowledge import TelemetryDock, forecast_settings
 from auvdock.estimation.stage import EstimationStage, NavigationStage, TruthStage
 from auvdock.estimation.wave_model import WaveModel
 from auvdock.loop.autopilot import Autopilot
@@ -124,7 +124,8 @@ def build_autopilot(
     known: DockMotion = dock
     telemetry = None
     if knows_dock_from_telemetry(m, m.controller.type):
-        telemetry = TelemetryDock(dock)  # the chart's anchor, the motion forecast from the telemetry
+        # the chart's anchor, the motion forecast from the telemetry (with its unit's slow error and rate)
+        telemetry = TelemetryDock(dock, forecast_settings(m.sensors.dock_telemetry))
         known = telemetry
     world = controller_world(m, dock)
     return Autopilot(
@@ -134,7 +135,7 @@ def build_autopilot(
         m.estimator,
         m.sensors,
         build_estimation(m, vehicle, known, telemetry),
-        Guidance(m.guidance, known, camera, entry=world.entry is not None),
+        Guidance(m.guidance, known, camera, entry=world.entry is not None, corridor=world.entry),
         world,
     )
 
@@ -202,6 +203,7 @@ def build_estimation(
             camera_mount=(mount.R_bc(), mount.t_bc()),
             telemetry=telemetry,
             waves=filter_wave_model(mission),
+            telemetry_unit=mission.sensors.dock_telemetry,
         )
     if telemetry is not None:
         raise ValueError("sensors.dock_telemetry: the dock's forecast needs estimation: filter")
