@@ -62,6 +62,8 @@ OUTCOME_COLUMNS: dict[str, str] = {
     "lost_track_reacquired": "int",
     "lost_track_longest_s": "float",
     "lost_track_log": "str",
+    # with the entry gate (guidance.entry_gate): entries aborted back to the hold point
+    "entry_aborts": "int",
     "solve_time_median_s": "float",
     "solve_time_p95_s": "float",
     "solve_time_p99_s": "float",

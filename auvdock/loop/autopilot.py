@@ -161,12 +161,14 @@ class Autopilot:
 
     def finish(self, result: LoopResult) -> None:
         """The run ended with ``result``: with a dock camera, the guidance's record of its losses of the
-        dock and its first fix go into the result."""
+        dock and its first fix go into the result; with the entry gate, its aborted entries."""
         g = self.guidance
         if g.camera:
             g.finish(result.t_end, result.reason)
             result.lost_tracks = list(g.events)
             result.dock_first_seen_s = g.first_fix_t
+        if g.corridor is not None:  # the entry timed to the sea: how often it backed out
+            result.entry_aborts = g.aborts
 
     def step(self, readings: Readings) -> ControlOutput:
         """One control step: estimate from the readings, solve, and return the thrust to hold

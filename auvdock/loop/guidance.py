@@ -18,16 +18,25 @@ phase       what the controllers steer to
 transit     the dock has never been seen: the standoff point ``standoff_m`` in front of
             the dock's entry, on its axis, by dead reckoning
 search      at the standoff point (within ``arrive_m``, by the estimate) and nothing seen:
-            the standoff point while the heading sweeps ``+- search_yaw_deg`` about the
-            bearing to the dock (the dock's heading if never seen), period
-            ``search_period_s``
+            the standoff point moved over the relative uncertainty (three standard deviations
+            of the vehicle's position relative to the dock, at most ``search_max_m``): towards
+            the dock along its axis and back over one sweep, across it over two, while the heading sweeps
+            ``+- search_yaw_deg`` about the bearing to the dock (the dock's heading if never
+            seen), period ``search_period_s``
 align       seen, but not yet in the entry tube (in front of the entry, within ``arrive_m``
             of the dock's axis, no farther than the standoff point): the standoff point
-approach    in the entry tube, a fix within :data:`FRESH_FIX_S`: the dock itself
+hold        in the entry tube with ``entry_gate`` (and the dock's body): the hold point ``gate_m``
+            in front of the docking point on its axis, moving with the dock, until the entry's
+            window opens (:meth:`Guidance._window`: on the axis within ``gate_offset_m``, the
+            estimate as sure, crossing it slower than ``gate_speed_m_s``, for ``gate_hold_s``)
+approach    in the entry tube, a fix within :data:`FRESH_FIX_S` (and the window opened): the dock
+            itself; back to ``hold`` (an abort, counted) when the cross-axis offset predicted
+            ``abort_lead_s`` ahead leaves the funnel's cone before the nose reaches the cradle
 coast       approaching, no fix for up to ``coast_s``: the dock, on the filter's prediction
 back_off    no fix for longer: the standoff point (moving back widens what the camera
             covers), at the dock's heading; arrived there and still nothing: search
-given_up    no fix for ``give_up_s`` (or never, ``give_up_s`` after the start): the
+given_up    no fix for ``give_up_s`` (or never, ``give_up_s`` after the start), once the search
+            has covered its pattern (two sweep periods; or could not start for that long): the
             controller step reports ``lost_target`` with zero thrust and the run ends
 ==========  ==========================================================================
 
@@ -57,10 +66,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from auvdock.config.guidance import GUIDANCE_PHASES, GuidanceSettings
+from auvdock.vehicle.geometry import rotation_zyx
 from auvdock.world.dock import TranslatingDock
 
 if TYPE_CHECKING:
-    from auvdock.estimation.estimate import Estimate
+    from auvdock.controllers.entry import EntryCorridor
+    from auvdock.estimation.estimate import Estimate, HeaveError
     from auvdock.world.dock import DockMotion
 
 __all__ = [
@@ -81,10 +92,12 @@ GUIDANCE_SERIES: dict[str, tuple[int, ...]] = {"guidance_phase": (), "dock_fix_a
 class SteeringTarget(TranslatingDock):
     """The target the controllers track: a dock's motion, moved and turned by the guidance.
 
-    ``position(t) = dock.position(t) + offset + R_z(heading) (-standoff, 0, 0)``, its velocity
-    the dock's, its heading the dock's plus ``yaw_offset_rad``.  ``offset`` (3,, NED m) is
-    where the estimation stage places the dock relative to the mission's; ``standoff_m`` (m)
-    moves the target in front of the dock's entry along its axis.
+    ``position(t) = dock.position(t) + offset + e3 heave_error(t) + R_z(heading) (-standoff, 0, 0)``, its
+    velocity the dock's plus the heave error's rate, its heading the dock's plus ``yaw_offset_rad``.
+    ``offset`` (3,, NED m) is where the estimation stage places the dock relative to the mission's;
+    ``heave_error`` (:class:`~auvdock.estimation.estimate.HeaveError`, or None) the docking point's heave
+    beyond the dock's forecast motion, as the navigation filter estimates it and runs it forward;
+    ``standoff_m`` (m) moves the target in front of the dock's entry along its axis.
 
     Parameters
     ----------
@@ -97,6 +110,9 @@ class SteeringTarget(TranslatingDock):
         self.offset = np.zeros(3)
         self.standoff_m = 0.0
         self.yaw_offset_rad = 0.0
+        self.heave_error: HeaveError | None = None
+        #: The search's shift of the target (NED, m): a pattern over the relative uncertainty.
+        self.search_shift = np.zeros(3)
 
     @property
     def heading_rad(self) -> float:  # type: ignore[override]
@@ -116,19 +132,31 @@ class SteeringTarget(TranslatingDock):
 
     def _shift(self) -> np.ndarray:
         psi = float(self.dock.heading_rad)
-        return self.offset - self.standoff_m * np.array([math.cos(psi), math.sin(psi), 0.0])
+        return (
+            self.offset + self.search_shift - self.standoff_m * np.array([math.cos(psi), math.sin(psi), 0.0])
+        )
 
     def position(self, t: float | np.ndarray) -> np.ndarray:
         """The target's position (NED, m) at time(s) ``t`` (s), shape (..., 3)."""
-        return np.asarray(self.dock.position(t), dtype=float) + self._shift()
+        p = np.asarray(self.dock.position(t), dtype=float) + self._shift()
+        if self.heave_error is not None:
+            p[..., 2] += self.heave_error.ahead(t)[0]
+        return p
 
     def velocity(self, t: float | np.ndarray) -> np.ndarray:
-        """The target's velocity (NED, m/s): the dock's."""
-        return np.asarray(self.dock.velocity(t), dtype=float)
+        """The target's velocity (NED, m/s): the dock's, with the heave error's rate."""
+        v = np.array(self.dock.velocity(t), dtype=float)
+        if self.heave_error is not None:
+            v[..., 2] += self.heave_error.ahead(t)[1]
+        return v
 
     def dock_position(self, t: float) -> np.ndarray:
         """Where the estimation stage places the docking point at ``t`` (NED, m)."""
-        return np.asarray(self.dock.position(t), dtype=float) + self.offset
+        p = np.asarray(self.dock.position(t), dtype=float) + self.offset
+        if self.heave_error is not None:
+            p = p.copy()
+            p[2] += float(self.heave_error.ahead(t)[0])
+        return p
 
 
 @dataclass
@@ -163,14 +191,23 @@ class Guidance:
     entry : bool
         Without a camera: approach through the standoff point on the dock's axis (the controller
         holds the dock's entry corridor).
+    corridor : EntryCorridor, optional
+        The dock's entry corridor (its funnel's cone): with ``entry_gate``, the entry is timed on it
+        (:meth:`_window`, :meth:`_abort`).  None: no gate.
     """
 
     def __init__(
-        self, settings: GuidanceSettings, dock: DockMotion, camera: bool, entry: bool = False
+        self,
+        settings: GuidanceSettings,
+        dock: DockMotion,
+        camera: bool,
+        entry: bool = False,
+        corridor: EntryCorridor | None = None,
     ) -> None:
         self.settings = settings
         self.camera = bool(camera)
         self.entry = bool(entry) and not self.camera
+        self.corridor = corridor if settings.entry_gate else None
         self.target = SteeringTarget(dock)
         self.reset()
 
@@ -183,9 +220,15 @@ class Guidance:
         """Start a new run: nothing seen yet."""
         self.phase = "transit" if self.camera else "align" if self.entry else "approach"
         self.target.offset = np.zeros(3)
+        self.target.heave_error = None
+        self.target.search_shift = np.zeros(3)
+        self._search_extent = np.zeros(2)
         self.target.standoff_m = self.settings.standoff_m if self.camera or self.entry else 0.0
         self.target.yaw_offset_rad = 0.0
         self.events: list[LostTrack] = []
+        #: Entries aborted back to the hold point (``entry_gate``).
+        self.aborts = 0
+        self._window_since: float | None = None
         self._search_t0: float | None = None
         self._last_fix: float | None = None
         #: The instant of the camera's first fix of the dock, s (None: not seen yet).
@@ -195,18 +238,55 @@ class Guidance:
         s = self.settings
         if phase == "search" and self.phase != "search":
             self._search_t0 = t
+            self._search_extent = self._search_span(est)
         self.phase = phase
-        self.target.standoff_m = s.standoff_m if phase in ("transit", "search", "align", "back_off") else 0.0
+        standoff = {
+            "transit": s.standoff_m,
+            "search": s.standoff_m,
+            "align": s.standoff_m,
+            "back_off": s.standoff_m,
+        }
+        standoff["hold"] = s.gate_m
+        self.target.standoff_m = standoff.get(phase, 0.0)
         # once the dock has been seen, away from the entry tube the camera looks where the dock is
         # believed to be: the heading is the bearing to it (the dock's heading once on its axis), and
         # the search sweeps about that bearing
-        looking = phase in ("align", "back_off", "search") and self._last_fix is not None
+        looking = phase in ("align", "back_off", "search", "hold") and self._last_fix is not None
         look = self._bearing_offset(est) if looking and s.look_at_dock else 0.0
+        self.target.search_shift = np.zeros(3)
         if phase == "search":
             assert self._search_t0 is not None
             w = 2.0 * math.pi / s.search_period_s
-            look += math.radians(s.search_yaw_deg) * math.sin(w * (t - self._search_t0))
+            tau = t - self._search_t0
+            look += math.radians(s.search_yaw_deg) * math.sin(w * tau)
+            # along the dock's axis over one sweep period, across it over two: the relative uncertainty's
+            # 3-sigma extent in both, while the heading sweeps;
+            psi = float(self.target.dock.heading_rad)
+            # forward only (a dock nearer than believed is in view; one farther is not), and back, at
+            # most search_max_m * w / 2 fast (0.39 m/s for 2.5 m in 20 s)
+            along, across = self._search_extent * np.array(
+                [0.5 * (1.0 - math.cos(w * tau)), math.sin(0.5 * w * tau)]
+            )
+            self.target.search_shift = along * np.array(
+                [math.cos(psi), math.sin(psi), 0.0]
+            ) + across * np.array([-math.sin(psi), math.cos(psi), 0.0])
         self.target.yaw_offset_rad = look
+
+    def _search_span(self, est: Estimate) -> np.ndarray:
+        """The search's extent along and across the dock's axis (2,, m): three standard deviations of the
+        vehicle's position relative to the dock (the estimate's), at most ``search_max_m``."""
+        s = self.settings
+        if est.relative_cov is None:
+            return np.full(2, s.search_max_m)
+        psi = float(self.target.dock.heading_rad)
+        C = np.asarray(est.relative_cov, dtype=float)
+        axes = np.array([[math.cos(psi), math.sin(psi), 0.0], [-math.sin(psi), math.cos(psi), 0.0]])
+        sig = np.sqrt(np.clip(np.einsum("ij,jk,ik->i", axes, C, axes), 0.0, None))
+        return np.minimum(3.0 * sig, s.search_max_m)
+
+    def _searched(self, t: float) -> bool:
+        """Whether the search has covered its pattern once (two sweep periods) by ``t``."""
+        return self._search_t0 is not None and t - self._search_t0 >= 2.0 * self.settings.search_period_s
 
     def _bearing_offset(self, est: Estimate) -> float:
         """The bearing from the vehicle (by the estimate) to the docking point, relative to the dock's
@@ -222,9 +302,15 @@ class Guidance:
         t = float(est.t)
         if est.dock_offset_ned is not None:
             self.target.offset = np.asarray(est.dock_offset_ned, dtype=float).copy()
+        self.target.heave_error = est.dock_heave_error
         if not self.camera:
             if self.entry:  # through the standoff point into the entry tube, then the dock
-                phase = "approach" if self.phase == "approach" or self._in_entry(est) else "align"
+                if self.phase == "approach":
+                    phase = self._entering(est, t)
+                elif self.phase == "hold" or self._in_entry(est):
+                    phase = self._gate(est, t, fresh=True)
+                else:
+                    phase = "align"
                 self._set(phase, t, est)
             code = float(GUIDANCE_PHASES.index(self.phase))
             return {"guidance_phase": np.asarray(code), "dock_fix_age_s": np.asarray(math.nan)}
@@ -241,23 +327,28 @@ class Guidance:
         if self.phase == "given_up":
             phase = "given_up"
         elif fix is None:  # never seen
-            if t > s.give_up_s:
+            # give up only once the search has covered the relative uncertainty (or could not start)
+            if t > s.give_up_s and (self._searched(t) or t > s.give_up_s + 2.0 * s.search_period_s):
                 phase = "given_up"
             elif self.phase == "transit" and self._at_standoff(est):
                 phase = "search"
             else:
                 phase = self.phase
         elif age <= s.coast_s:
-            if self.phase in ("approach", "coast") or self._in_entry(est):
+            if self.phase in ("approach", "coast"):
                 phase = "approach" if age <= FRESH_FIX_S else "coast"
+                if phase == "approach":
+                    phase = self._entering(est, t)
+            elif self.phase == "hold" or self._in_entry(est):
+                phase = self._gate(est, t, fresh=age <= FRESH_FIX_S)
             else:
                 phase = "align"
         else:  # seen before, lost now
             phase = self.phase
-            if self.phase in ("approach", "coast", "align", "transit"):
+            if self.phase in ("approach", "coast", "align", "transit", "hold"):
                 self.events.append(LostTrack(fix, fix + s.coast_s))
                 phase = "back_off"
-            if age > s.give_up_s:
+            if age > s.give_up_s and (self._searched(t) or age > s.give_up_s + 2.0 * s.search_period_s):
                 self._close_loss(t, "given up")
                 phase = "given_up"
             elif phase == "back_off" and self._at_standoff(est):
@@ -282,6 +373,73 @@ class Guidance:
         across = math.hypot(-rel[0] * math.sin(psi) + rel[1] * math.cos(psi), rel[2])
         s = self.settings
         return -(s.standoff_m + s.arrive_m) <= along < 0.0 and across <= s.arrive_m
+
+    # --- the entry timed to the sea ---------------------------------------------------------------
+    def _cross_axis(self, est: Estimate) -> tuple[float, np.ndarray, np.ndarray]:
+        """The vehicle's position along the dock's axis relative to the docking point (m; ahead of the entry
+        < 0), its offset from the axis (3,, NED m) and its velocity across the axis relative to the dock's
+        (3,, m/s), by the estimate."""
+        t = float(est.t)
+        psi = float(self.target.dock.heading_rad)
+        axis = np.array([math.cos(psi), math.sin(psi), 0.0])
+        x = np.asarray(est.state, dtype=float)
+        rel = x[0:3] - self.target.dock_position(t)
+        along = float(axis @ rel)
+        v = rotation_zyx(float(x[3]), float(x[4]), float(x[5])) @ x[6:9] - np.asarray(
+            self.target.velocity(t), dtype=float
+        )
+        return along, rel - along * axis, v - float(axis @ v) * axis
+
+    def _window(self, est: Estimate) -> bool:
+        """Whether the entry's window is open now: on the axis within ``gate_offset_m`` (and the estimate as
+        sure of it), moving across it relative to the dock slower than ``gate_speed_m_s``."""
+        s = self.settings
+        _, off, v = self._cross_axis(est)
+        sure = True
+        if est.relative_cov is not None:
+            sure = (
+                math.sqrt(max(float(np.max(np.linalg.eigvalsh(np.asarray(est.relative_cov)))), 0.0))
+                <= s.gate_offset_m
+            )
+        return (
+            float(np.linalg.norm(off)) <= s.gate_offset_m
+            and float(np.linalg.norm(v)) <= s.gate_speed_m_s
+            and sure
+        )
+
+    def _gate(self, est: Estimate, t: float, fresh: bool) -> str:
+        """In the entry tube: hold, or go in once the window has stayed open ``gate_hold_s`` (with
+        a fresh fix);
+        without a gate, go in at once (``coast`` on a stale fix, as before)."""
+        if self.corridor is None:
+            return "approach" if fresh else "coast"
+        if not self._window(est):
+            self._window_since = None
+            return "hold"
+        if self._window_since is None:
+            self._window_since = t
+        if fresh and t - self._window_since >= self.settings.gate_hold_s - 1e-9:
+            self._window_since = None
+            return "approach"
+        return "hold"
+
+    def _entering(self, est: Estimate, t: float) -> str:
+        """Going in: abort to the hold point (``hold``) when the cross-axis offset predicted ``abort_lead_s``
+        ahead leaves the funnel's cone where the vehicle will then be, before the nose reaches the cradle."""
+        c = self.corridor
+        if c is None:
+            return "approach"
+        along, off, v = self._cross_axis(est)
+        if along >= c.cradle_x_m:  # the nose is in the cradle: committed
+            return "approach"
+        lead = self.settings.abort_lead_s
+        ahead = float(np.linalg.norm(off + lead * v))
+        allowed = c.cradle_radius_m + c.taper * max(0.0, c.cradle_x_m - along)
+        if ahead > allowed:
+            self.aborts += 1
+            self._window_since = None
+            return "hold"
+        return "approach"
 
     def _close_loss(self, t: float, how: str) -> None:
         if self.events and self.events[-1].t_end is None:

@@ -299,6 +299,8 @@ class LoopRecorder:
             from auvdock.loop.guidance import lost_track_summary
 
             outcome.update(lost_track_summary(result.lost_tracks, result.dock_first_seen_s))
+        if result.entry_aborts is not None:
+            outcome["entry_aborts"] = int(result.entry_aborts)
         if self.relative_errors:
             e = np.asarray(self.relative_errors)
             outcome["relative_position_rmse_m"] = float(np.sqrt(np.mean(e**2)))

@@ -314,7 +314,8 @@ class LoopResult:
     state (12,) in which docking (or the collision) was declared; ``touch`` the contact with the
     dock's body that ended the run; ``lost_tracks`` the camera's losses of the dock
     (:class:`auvdock.loop.guidance.LostTrack`; None without a dock camera) and
-    ``dock_first_seen_s`` the instant of its first fix of the dock, s (None: never seen).
+    ``dock_first_seen_s`` the instant of its first fix of the dock, s (None: never seen);
+    ``entry_aborts`` the entries aborted back to the hold point (``guidance.entry_gate``; None without it).
     """
 
     reason: str
@@ -326,6 +327,7 @@ class LoopResult:
     touch: Contact | None = None
     lost_tracks: list[LostTrack] | None = None
     dock_first_seen_s: float | None = None
+    entry_aborts: int | None = None
     verdict: Verdict | None = None
 
 
