@@ -190,6 +190,12 @@ class DockForecastSettings(Strict):
         "Without it a drift of 1 cm/s costs 0.9 of the heave's std at 0.5 s ahead (measured); with "
         "it and no drift, under 3 %",
     )
+    zero_mean: bool = Field(
+        default=False,
+        description="the fixes are displacements from the dock's mean (a motion unit's: its high-pass filter "
+        "makes its output zero-mean), so the level is zero, not fitted: a line through fixes that carry a "
+        "slow error would hold that error's 300 s average (2 cm of a 5 cm, 20 s error) as the dock's level",
+    )
     noise_threshold: Annotated[float, Field(ge=0)] = Field(
         default=2.0,
         description="the spectrum's noise floor is raised by this many standard errors of the estimate "
@@ -476,11 +482,10 @@ class DockForecaster:
         return True
 
     def update_rate(self, t: float, rate_ned: np.ndarray, std: np.ndarray) -> bool:
-        """Add one fix of the dock's rate (a motion unit's heave rate): (3,) NED m/s taken at time
-        t (s), per-axis
-        std (3,) m/s.  The forecast conditions on the newest ``max_rate_points`` of them with the covariances
-        the spectrum implies (a rate's with a displacement ``-c'``, with a rate ``-c''``).  False if rejected
-        (not finite, or not later than the previous rate fix)."""
+        """Add one fix of the dock's rate (a motion unit's heave rate): (3,) NED m/s taken at time t
+        (s), per-axis std (3,) m/s.  The forecast conditions on ``max_rate_points`` of them, spread over
+        ``past_s``, with the covariances the spectrum implies (a rate's with a displacement ``-c'``, with a
+        rate ``-c''``).  False if rejected (not finite, or not later than the previous rate fix)."""
         v = np.asarray(rate_ned, dtype=float).reshape(3)
         sd = np.maximum(np.asarray(std, dtype=float).reshape(3), 1e-4)
         t = float(t)
@@ -569,7 +574,9 @@ class DockForecaster:
         if lv.sum() < 4:
             lv = valid
         s = tg[lv] - t_end
-        if st.level_trend:
+        if st.zero_mean:
+            level, slope = np.zeros(3), np.zeros(3)
+        elif st.level_trend:
             A = np.stack([np.ones_like(s), s], axis=1)
             coef, *_ = np.linalg.lstsq(A, x[lv], rcond=None)
             level, slope = coef[0], coef[1]

@@ -27,12 +27,13 @@ __all__ = ["TelemetryDock", "forecast_settings"]
 
 
 def forecast_settings(unit: DockTelemetrySettings | None) -> DockForecastSettings:
-    """The forecaster's settings for a dock's motion unit: its slow heave error as a known covariance (a data
-    sheet's unit, ``motion_unit: mru``); the defaults otherwise."""
+    """The forecaster's settings for a dock's motion unit: for a data sheet's unit (``motion_unit: mru``) its
+    slow heave error as a known covariance and its output's zero mean (a high-pass filter's: no level to fit);
+    the defaults otherwise (the white unit: as the forecaster was designed on)."""
     if unit is None or unit.motion_unit != "mru":
         return DockForecastSettings()
     return DockForecastSettings(
-        slow_error_std_m=unit.heave_error_std_m, slow_error_tau_s=unit.heave_error_tau_s
+        slow_error_std_m=unit.heave_error_std_m, slow_error_tau_s=unit.heave_error_tau_s, zero_mean=True
     )
 
 
