@@ -13,8 +13,8 @@ import pytest
 
 from auvdock.config.guidance import GuidanceSettings
 from auvdock.controllers.entry import EntryCorridor
+from auvdock.estimation.dock_heave_error import DockErrorModel
 from auvdock.estimation.estimate import Estimate
-from auvdock.estimation.navigation_filter import DockErrorModel
 from auvdock.loop.guidance import Guidance
 from auvdock.sensing.motion_unit import MotionUnit
 from auvdock.sensing.settings import DockTelemetrySettings

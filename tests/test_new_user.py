@@ -32,10 +32,16 @@ def _auvdock(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
 
 
 def _blind_basin(folder: Path, name: str = "basin_blind") -> Path:
-    """The wave basin with a camera that sees only 0.3 m and a guidance that gives up after 2 s:
-    a sea run that ends ``lost_target`` with the dock never seen, in a few seconds."""
+    """The wave basin with a camera that sees only 0.3 m and a guidance that gives up after 2 s and a
+    search of 0.25 s sweeps (it gives up once the search is done, or 2 + 2 x 0.25 s after the start): a sea
+    run that ends ``lost_target`` with the dock never seen, in a few seconds."""
     m = load_mission(resolve("basin_regular")).with_updates(
-        **{"sensors.dock_camera.visibility_m": 0.3, "guidance.give_up_s": 2.0, "name": name}
+        **{
+            "sensors.dock_camera.visibility_m": 0.3,
+            "guidance.give_up_s": 2.0,
+            "guidance.search_period_s": 0.25,
+            "name": name,
+        }
     )
     path = folder / f"{name}.yaml"
     path.write_text(m.to_yaml())

@@ -12,7 +12,7 @@ from auvdock.estimation.water_ahead import WaterAhead
 from auvdock.sensing.readings import FlowSensing
 
 if TYPE_CHECKING:
-    from auvdock.estimation.navigation_filter import DockErrorModel
+    from auvdock.estimation.dock_heave_error import DockErrorModel
     from auvdock.estimation.wave_model import WaveModel
 
 __all__ = ["Estimate", "HeaveError"]
@@ -23,7 +23,7 @@ class HeaveError:
     """The docking point's heave beyond the motion forecast from the dock's telemetry, as the
     navigation filter
     estimates it at ``t`` (s): ``state`` (2,) the error (down, m) and its rate (m/s), run forward on ``model``
-    (:class:`auvdock.estimation.navigation_filter.DockErrorModel`: it decays back to the forecast)."""
+    (:class:`auvdock.estimation.dock_heave_error.DockErrorModel`: it decays back to the forecast)."""
 
     t: float
     state: np.ndarray

@@ -44,8 +44,9 @@ import casadi as ca
 import numpy as np
 
 from auvdock.estimation.delay import ThrustSchedule, mean_thrust
+from auvdock.estimation.dock_heave_error import DockErrorModel
 from auvdock.estimation.estimate import Estimate, HeaveError
-from auvdock.estimation.navigation_filter import DockErrorModel, NavEstimate, NavigationFilter
+from auvdock.estimation.navigation_filter import NavEstimate, NavigationFilter
 from auvdock.estimation.settings import FORECAST_HORIZONS_S, NavigationSettings
 from auvdock.estimation.wave_model import WaveModel
 from auvdock.sensing.readings import FlowSensing, Readings
@@ -73,8 +74,8 @@ __all__ = [
 #: ``estimation:`` values.
 ESTIMATION_MODES = ("truth", "filter")
 
-#: The dock's heave error's frequency until the forecaster has estimated the heave's spectrum, rad/s
-#: (an 8 s swell's).
+#: The dock's heave error's frequency until the forecaster has estimated the heave's spectrum, without a wave
+#: model to take the sea's mean frequency from, rad/s (an 8 s swell's).
 _DEFAULT_HEAVE_OMEGA = 2.0 * math.pi / 8.0
 
 #: What the filter stage records per step: name -> per-row shape.
@@ -240,7 +241,9 @@ class NavigationStage:
                 _, p, v = dock.trajectory(t, 0.0, 0)  # one evaluation for both
                 return np.asarray(p[0], dtype=float) - anchor, np.asarray(v[0], dtype=float)
 
-        # where the dock's motion is a forecast, the filter also carries what the forecast leaves unknown
+        # where the dock's motion is a forecast, the filter also carries what the forecast leaves unknown; its
+        # frequency the sea's mean (the wave model's) until the forecaster has the heave's spectrum
+        self._heave_omega0 = float(waves.omega_rad_s) if waves is not None else _DEFAULT_HEAVE_OMEGA
         error = None
         if telemetry is not None and settings.dock_heave_error == "auto":
             slow = 0.0
@@ -248,7 +251,7 @@ class NavigationStage:
             if telemetry_unit is not None and telemetry_unit.motion_unit == "mru":
                 slow, tau = telemetry_unit.heave_error_std_m, telemetry_unit.heave_error_tau_s
             error = DockErrorModel(
-                _DEFAULT_HEAVE_OMEGA, settings.dock_heave_error_damping, settings.prior_dock_std_m, slow, tau
+                self._heave_omega0, settings.dock_heave_error_damping, settings.prior_dock_std_m, slow, tau
             )
         self.filter = NavigationFilter(
             settings,
@@ -286,8 +289,8 @@ class NavigationStage:
         self._forecast_std = math.inf
         self._heave_omega_set = False
         if self.filter.dock_error is not None:
-            self.filter.dock_error.omega_rad_s = _DEFAULT_HEAVE_OMEGA
-            self.filter._in_wave[2] = _DEFAULT_HEAVE_OMEGA
+            self.filter.dock_error.omega_rad_s = self._heave_omega0
+            self.filter._in_wave[2] = self._heave_omega0
         self.last: NavEstimate | None = None
         self._t0: float | None = None
         self.dock_fix_t: float | None = None
