@@ -1,7 +1,7 @@
 """The dock's heave as a bank of oscillators in a Kalman filter: the alternative to the spectral
-forecaster that
-``benchmarks/dock_motion_forecast.py`` measures (not used by auvdock: it forecasts 1.6-4 times worse than the
-optimal linear predictor where the spectral forecaster is within 1.1-1.3 times, measured there).
+forecaster that ``benchmarks/dock_motion_forecast.py`` measures (not used by auvdock: it forecasts
+1.6-4.2 times worse than the optimal linear predictor where the spectral forecaster is within 1.09-1.43
+times, measured there).
 
 A moored WEC's heave (the buoy's answer to the sea) is a stationary, narrow-band process.  Its spectrum
 ``S(w)`` (m^2 s/rad, one-sided) is fitted by ``K`` independent damped oscillators, each driven by white

@@ -128,6 +128,15 @@ def test_the_horizon_sweep_flies_each_grid_with_each_controller() -> None:
     assert {r.mission["controller"]["coarse"]["dt_s"] for r in runs} == {0.5}
 
 
+def test_the_white_unit_sweep_flies_ce_on_the_camera_with_the_white_motion_unit() -> None:
+    s = load_sweep("pacwave_white_unit")
+    runs = expand_sweep(s)
+    assert len(runs) == s.n_runs == 50
+    assert {r.controller for r in runs} == {"ce"}
+    assert {r.mission["sensors"]["dock_telemetry"]["motion_unit"] for r in runs} == {"white"}
+    assert {r.mission["sensors"]["dock_camera"]["enabled"] for r in runs} == {True}
+
+
 def test_expansion_ids_derived_flow_and_reproducible_draws(tmp_path: Path) -> None:
     text = f"""\
 name: draws
