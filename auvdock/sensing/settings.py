@@ -241,12 +241,12 @@ class DockTelemetrySettings(Strict):
       also sends the heave rate (SBG's ship-motion velocity output; readings of kind
       ``dock_motion_rate``, NED m/s) with white noise ``rate_noise_m_s`` (assumed 1 cm/s).
     * ``white``: the pessimistic variant, the data sheet's 5 cm taken as white noise (``std_m`` per
-      axis, no rate): what the kriging forecaster was designed on.  The deployable controllers then
-      steer to the dock's motion
-    forecast from these readings (:class:`auvdock.estimation.dock_knowledge.TelemetryDock`); Oracle
-    alone is told the true motion.  Without it every controller is told the dock's motion
-    (Assumption 2).  The dock's position is not in the telemetry: the vehicle finds it with its camera
-    or its charted position (relative navigation).
+      axis, no rate): what the kriging forecaster was designed on.
+
+    The deployable controllers then steer to the dock's motion forecast from these readings
+    (:class:`auvdock.estimation.dock_knowledge.TelemetryDock`); Oracle alone is told the true motion.
+    Without it every controller is told the dock's motion (Assumption 2).  The dock's position is not in
+    the telemetry: the vehicle finds it with its camera or its charted position (relative navigation).
     """
 
     enabled: bool = Field(
