@@ -609,6 +609,15 @@ class NavigationFilter:
             dock_heave_error_cov=heave_error_cov,
         )
 
+    def set_dock_error_frequency(self, omega_rad_s: float) -> None:
+        """The heave error oscillator's natural frequency, rad/s (the heave's mean frequency, once known)."""
+        if self.dock_error is None:
+            raise ValueError("this filter has no dock heave error (dock_error)")
+        if not (math.isfinite(omega_rad_s) and omega_rad_s > 0.0):
+            raise ValueError(f"the dock heave error's frequency must be finite and > 0, got {omega_rad_s}")
+        self.dock_error.omega_rad_s = float(omega_rad_s)
+        self._in_wave[2] = float(omega_rad_s)
+
     def set_dock_error_std(self, std_m: float) -> None:
         """What the dock's motion as given leaves unknown now (m, the heave's): the heave error's process
         noise follows it (:class:`DockErrorModel`)."""

@@ -289,8 +289,7 @@ class NavigationStage:
         self._forecast_std = math.inf
         self._heave_omega_set = False
         if self.filter.dock_error is not None:
-            self.filter.dock_error.omega_rad_s = self._heave_omega0
-            self.filter._in_wave[2] = self._heave_omega0
+            self.filter.set_dock_error_frequency(self._heave_omega0)
         self.last: NavEstimate | None = None
         self._t0: float | None = None
         self.dock_fix_t: float | None = None
@@ -312,9 +311,7 @@ class NavigationStage:
             m0 = float(np.sum(S[2]))
             if m0 > 0.0:
                 w = float(np.sum(omega * S[2]) / m0)
-                assert self.filter.dock_error is not None
-                self.filter.dock_error.omega_rad_s = w
-                self.filter._in_wave[2] = w
+                self.filter.set_dock_error_frequency(w)
                 self.filter.set_dock_error_std(std)
                 self._heave_omega_set = True
 
